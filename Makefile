@@ -1,0 +1,27 @@
+# The two commands of the README: `make run` and `make test`. Both install what is missing first.
+BUILD_DIR ?= build
+SCENARIO ?= configs/scenarios/default.yaml
+CMAKE_FLAGS ?=
+
+.PHONY: deps configure build run test bench clean
+
+deps:
+	@tools/install-deps.sh
+
+configure: deps
+	@cmake -S . -B $(BUILD_DIR) -G Ninja -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS) > /dev/null
+
+build: configure
+	@cmake --build $(BUILD_DIR)
+
+run: build
+	@$(BUILD_DIR)/bin/iapsim run $(SCENARIO)
+
+test: build
+	@cd $(BUILD_DIR) && ctest --output-on-failure --timeout 600
+
+bench: build
+	@$(BUILD_DIR)/bin/iapsim bench all
+
+clean:
+	rm -rf $(BUILD_DIR)

@@ -1,0 +1,130 @@
+#pragma once
+// Publish/subscribe bus between iapsim processes. ZeroMQ stays behind this interface.
+//
+// Topology: every node binds one publisher endpoint and connects its subscriber to the endpoints of its
+// peers. All of a node's topics leave through that one publisher, so the messages of one node reach a
+// subscriber in the order they were sent, across topics (the lockstep protocol relies on it).
+//
+// Frames on the wire: [topic '\0'] [meta: version, per-topic sequence, datatype, md5, publisher] [payload].
+//
+// Queues and drops: each connection queues up to `send_hwm` messages at the publisher and `receive_hwm` at
+// the subscriber. When a subscriber's queue is full the publisher either drops the message and counts it
+// (kDropNewest, for best-effort streams) or waits up to `block_timeout` for room (kBlock). Subscribers count
+// gaps in the per-topic sequence as lost messages.
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "bridge/message.h"
+
+namespace iapsim::bridge {
+
+/// A wiring or protocol fault on the bus (type mismatch, bad endpoint). The message names topic and node.
+class BusError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class DropPolicy { kDropNewest, kBlock };
+
+struct BusOptions {
+  std::string node_name;
+  std::string bind_endpoint;                // "ipc://@name", "ipc:///path", "tcp://127.0.0.1:5555" or ":*"
+  std::vector<std::string> peer_endpoints;  // publishers of the other nodes
+  int send_hwm = 10000;                     // messages queued per subscriber at this publisher
+  int receive_hwm = 10000;                  // messages queued per publisher at this subscriber
+  DropPolicy drop_policy = DropPolicy::kBlock;
+  std::chrono::milliseconds block_timeout{2000};
+};
+
+struct TopicCounters {
+  uint64_t sent = 0;
+  uint64_t dropped = 0;   // not sent: a subscriber's queue stayed full (see DropPolicy)
+  uint64_t received = 0;
+  uint64_t lost = 0;      // gaps in the publisher's sequence seen at this subscriber
+};
+
+struct BusStats {
+  std::map<std::string, TopicCounters> topics;
+  uint64_t malformed = 0;  // frames that were not a well-formed iapsim message
+};
+
+/// Metadata of a received message.
+struct MessageInfo {
+  const std::string& topic;
+  const std::string& datatype;
+  const std::string& md5;
+  const std::string& publisher;
+  uint64_t sequence;  // per topic and publisher, starting at 0
+};
+
+class Bus {
+ public:
+  using RawCallback = std::function<void(const uint8_t* data, size_t size, const MessageInfo& info)>;
+
+  explicit Bus(const BusOptions& options);
+  ~Bus();
+  Bus(const Bus&) = delete;
+  Bus& operator=(const Bus&) = delete;
+
+  const std::string& node_name() const;
+  /// The endpoint actually bound (resolves a tcp wildcard port).
+  std::string bound_endpoint() const;
+
+  void PublishRaw(const std::string& topic, const TypeInfo& type, const uint8_t* data, size_t size);
+
+  template <class M>
+  void Publish(const std::string& topic, const M& message) {
+    EncodeInto(message, &scratch_);
+    PublishRaw(topic, TypeInfoOf<M>(), scratch_.data(), scratch_.size());
+  }
+
+  /// Calls `callback` for each message on `topic`. A message of another type or md5 makes Spin throw.
+  template <class M>
+  void Subscribe(const std::string& topic, std::function<void(const M&, const MessageInfo&)> callback) {
+    auto message = std::make_shared<M>();
+    AddSubscription(topic, /*exact=*/true, &TypeInfoOf<M>(),
+                    [message, callback, topic](const uint8_t* data, size_t size, const MessageInfo& info) {
+                      std::string error;
+                      if (!Decode(data, size, message.get(), &error)) {
+                        throw BusError("topic '" + topic + "' from '" + info.publisher + "': undecodable " +
+                                       info.datatype + ": " + error);
+                      }
+                      callback(*message, info);
+                    });
+  }
+
+  /// Every message whose topic starts with `prefix` ("" for all), of any type, undecoded.
+  void SubscribeRaw(const std::string& prefix, RawCallback callback);
+
+  /// Waits up to `timeout` for a message, then dispatches everything already queued (at most `max_batch`).
+  /// Returns the number of messages dispatched. Throws BusError on a type mismatch.
+  int Spin(std::chrono::microseconds timeout, int max_batch = 1000);
+
+  /// Start-up handshake against the slow-joiner problem. A node publishes hellos until told to start;
+  /// HandshakeComplete(peers) becomes true once every subscription this node made before the handshake is
+  /// live at every peer's publisher.
+  void BeginHandshake();
+  void PublishHello();
+  bool HandshakeComplete(const std::vector<std::string>& peers);
+  void EndHandshake();
+
+  const BusStats& stats() const { return stats_; }
+
+ private:
+  void AddSubscription(const std::string& topic, bool exact, const TypeInfo* type, RawCallback callback);
+
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  BusStats stats_;
+  std::vector<uint8_t> scratch_;
+};
+
+}  // namespace iapsim::bridge

@@ -1,0 +1,177 @@
+#include "bridge/bus.h"
+
+#include <gtest/gtest.h>
+#include <iapsim_msgs/IapState.h>
+#include <std_msgs/String.h>
+#include <unistd.h>
+
+#include <thread>
+
+namespace iapsim::bridge {
+namespace {
+
+using std::chrono::milliseconds;
+
+std::string UniqueEndpoint(const std::string& name) {
+  const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
+  return "ipc://@iapsim-test-" + std::to_string(getpid()) + "-" + test->name() + "-" + name;
+}
+
+BusOptions Options(const std::string& name, const std::vector<std::string>& peers) {
+  BusOptions options;
+  options.node_name = name;
+  options.bind_endpoint = UniqueEndpoint(name);
+  for (const auto& peer : peers) options.peer_endpoints.push_back(UniqueEndpoint(peer));
+  return options;
+}
+
+// Runs the start-up handshake between two buses in one thread, as two processes would.
+void Handshake(Bus& a, Bus& b) {
+  a.BeginHandshake();
+  b.BeginHandshake();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (!(a.HandshakeComplete({b.node_name()}) && b.HandshakeComplete({a.node_name()}))) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "handshake did not complete";
+    a.PublishHello();
+    b.PublishHello();
+    a.Spin(milliseconds(2));
+    b.Spin(milliseconds(2));
+  }
+  a.EndHandshake();
+  b.EndHandshake();
+}
+
+TEST(Bus, DeliversEveryMessageAfterHandshakeInOrder) {
+  Bus physics(Options("physics", {"control"}));
+  Bus control(Options("control", {"physics"}));
+  std::vector<uint64_t> steps;
+  control.Subscribe<iapsim_msgs::IapState>("/iap/state", [&](const iapsim_msgs::IapState& s, const MessageInfo& info) {
+    EXPECT_EQ(info.publisher, "physics");
+    EXPECT_EQ(info.sequence, s.step);
+    steps.push_back(s.step);
+  });
+  Handshake(physics, control);
+
+  // no slow-joiner loss: the very first message after the handshake arrives
+  iapsim_msgs::IapState state;
+  for (uint64_t k = 0; k < 500; ++k) {
+    state.step = k;
+    physics.Publish("/iap/state", state);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (steps.size() < 500 && std::chrono::steady_clock::now() < deadline) control.Spin(milliseconds(10));
+  ASSERT_EQ(steps.size(), 500u);
+  for (uint64_t k = 0; k < 500; ++k) EXPECT_EQ(steps[k], k);
+  EXPECT_EQ(physics.stats().topics.at("/iap/state").sent, 500u);
+  EXPECT_EQ(control.stats().topics.at("/iap/state").received, 500u);
+  EXPECT_EQ(control.stats().topics.at("/iap/state").lost, 0u);
+}
+
+TEST(Bus, ExactTopicDoesNotMatchLongerTopic) {
+  Bus a(Options("a", {"b"}));
+  Bus b(Options("b", {"a"}));
+  int exact = 0, prefixed = 0;
+  b.Subscribe<std_msgs::String>("/x", [&](const std_msgs::String&, const MessageInfo&) { ++exact; });
+  b.SubscribeRaw("/x", [&](const uint8_t*, size_t, const MessageInfo&) { ++prefixed; });
+  Handshake(a, b);
+  std_msgs::String text;
+  a.Publish("/x", text);
+  a.Publish("/xy", text);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (prefixed < 2 && std::chrono::steady_clock::now() < deadline) b.Spin(milliseconds(10));
+  EXPECT_EQ(exact, 1);
+  EXPECT_EQ(prefixed, 2);
+}
+
+TEST(Bus, RefusesTypeMismatchWithAClearError) {
+  Bus a(Options("physics", {"control"}));
+  Bus b(Options("control", {"physics"}));
+  b.Subscribe<iapsim_msgs::IapState>("/iap/state", [](const iapsim_msgs::IapState&, const MessageInfo&) {});
+  Handshake(a, b);
+  std_msgs::String wrong;
+  a.Publish("/iap/state", wrong);
+  try {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (std::chrono::steady_clock::now() < deadline) b.Spin(milliseconds(10));
+    FAIL() << "no error for a type mismatch";
+  } catch (const BusError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("/iap/state"), std::string::npos) << what;
+    EXPECT_NE(what.find("iapsim_msgs/IapState"), std::string::npos) << what;
+    EXPECT_NE(what.find("std_msgs/String"), std::string::npos) << what;
+    EXPECT_NE(what.find("'physics'"), std::string::npos) << what;
+  }
+}
+
+TEST(Bus, CountsDropsWhenASubscriberFallsBehind) {
+  auto options = Options("fast", {"slow"});
+  options.send_hwm = 10;
+  options.drop_policy = DropPolicy::kDropNewest;
+  Bus fast(options);
+  auto slow_options = Options("slow", {"fast"});
+  slow_options.receive_hwm = 10;
+  Bus slow(slow_options);
+  uint64_t received = 0;
+  slow.SubscribeRaw("/s", [&](const uint8_t*, size_t, const MessageInfo&) { ++received; });
+  Handshake(fast, slow);
+  std_msgs::String text;
+  text.data.assign(1000, 'x');
+  for (int i = 0; i < 5000; ++i) fast.Publish("/s", text);
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+  while (std::chrono::steady_clock::now() < deadline) slow.Spin(milliseconds(10));
+  // one more message once there is room again: every drop before it shows as a gap
+  fast.Publish("/s", text);
+  deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+  while (std::chrono::steady_clock::now() < deadline) slow.Spin(milliseconds(10));
+  const auto& sent = fast.stats().topics.at("/s");
+  EXPECT_GT(sent.dropped, 0u);
+  EXPECT_EQ(sent.sent + sent.dropped, 5001u);
+  EXPECT_EQ(received, sent.sent);
+  EXPECT_EQ(slow.stats().topics.at("/s").lost, sent.dropped);
+}
+
+TEST(Bus, ReportsAnEndpointItCannotBind) {
+  BusOptions options;
+  options.node_name = "bad";
+  options.bind_endpoint = "tcp://not-an-address:xyz";
+  try {
+    Bus bus(options);
+    FAIL() << "bound an invalid endpoint";
+  } catch (const BusError& e) {
+    EXPECT_NE(std::string(e.what()).find("'bad'"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("tcp://not-an-address:xyz"), std::string::npos);
+  }
+}
+
+TEST(Bus, TcpLoopbackWithWildcardPort) {
+  BusOptions a_options;
+  a_options.node_name = "a";
+  a_options.bind_endpoint = "tcp://127.0.0.1:*";
+  Bus a(a_options);
+  BusOptions b_options;
+  b_options.node_name = "b";
+  b_options.bind_endpoint = "tcp://127.0.0.1:*";
+  b_options.peer_endpoints = {a.bound_endpoint()};
+  Bus b(b_options);
+  int received = 0;
+  b.Subscribe<std_msgs::String>("/t", [&](const std_msgs::String& s, const MessageInfo&) {
+    EXPECT_EQ(s.data, "over tcp");
+    ++received;
+  });
+  b.BeginHandshake();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (!b.HandshakeComplete({"a"}) && std::chrono::steady_clock::now() < deadline) {
+    a.PublishHello();
+    b.Spin(milliseconds(5));
+  }
+  ASSERT_TRUE(b.HandshakeComplete({"a"}));
+  b.EndHandshake();
+  std_msgs::String s;
+  s.data = "over tcp";
+  a.Publish("/t", s);
+  while (received == 0 && std::chrono::steady_clock::now() < deadline) b.Spin(milliseconds(10));
+  EXPECT_EQ(received, 1);
+}
+
+}  // namespace
+}  // namespace iapsim::bridge

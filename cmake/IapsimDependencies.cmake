@@ -1,0 +1,39 @@
+# Every third-party dependency, found once. All come from Debian packages (tools/install-deps.sh).
+find_package(PkgConfig REQUIRED)
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(yaml-cpp REQUIRED)
+find_package(spdlog REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(cppzmq REQUIRED)
+find_package(nlohmann_json REQUIRED)
+find_package(Threads REQUIRED)
+
+# gencpp needs Debian's python (the pyenv python on PATH has no ROS modules)
+set(IAPSIM_PYTHON /usr/bin/python3 CACHE FILEPATH "Python with python3-genmsg and python3-gencpp")
+
+# ROS1 serialization and bag storage. Their catkin CMake configs run ament's python at configure
+# time, so the libraries are located directly instead (see shared NOTES).
+function(iapsim_find_library var name)
+  find_library(${var} NAMES ${name} REQUIRED)
+endfunction()
+iapsim_find_library(ROS_SERIALIZATION_LIB roscpp_serialization)
+iapsim_find_library(ROS_TIME_LIB rostime)
+iapsim_find_library(ROS_CPP_COMMON_LIB cpp_common)
+iapsim_find_library(ROSBAG_STORAGE_LIB rosbag_storage)
+iapsim_find_library(ROSLZ4_LIB roslz4)
+iapsim_find_library(CONSOLE_BRIDGE_LIB console_bridge)
+find_package(Boost REQUIRED COMPONENTS filesystem system)
+
+add_library(iapsim_ros_serialization INTERFACE)
+target_link_libraries(iapsim_ros_serialization INTERFACE ${ROS_SERIALIZATION_LIB} ${ROS_TIME_LIB}
+                                                        ${ROS_CPP_COMMON_LIB})
+add_library(iapsim::ros_serialization ALIAS iapsim_ros_serialization)
+
+# rosbag/bag.h includes pluginlib, class_loader and rcpputils headers from their own folders
+add_library(iapsim_rosbag INTERFACE)
+target_include_directories(iapsim_rosbag SYSTEM INTERFACE /usr/include/pluginlib /usr/include/class_loader
+                                                         /usr/include/rcpputils /usr/include/rcutils
+                                                         /usr/include/ament_index_cpp)
+target_link_libraries(iapsim_rosbag INTERFACE ${ROSBAG_STORAGE_LIB} ${ROSLZ4_LIB} ${CONSOLE_BRIDGE_LIB}
+                                             Boost::filesystem Boost::system iapsim_ros_serialization)
+add_library(iapsim::rosbag ALIAS iapsim_rosbag)

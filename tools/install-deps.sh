@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Installs every Debian package iapsim needs to build, test and run.
+# Idempotent: packages already present are skipped, so a second run is quick and changes nothing.
+# Fails loudly: any apt error stops the script with a non-zero exit and says which step failed.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  cmake ninja-build g++ make pkg-config
+  # core libraries
+  libeigen3-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
+  # bus: ZeroMQ + ROS1 wire format, bag files, message definitions for gencpp
+  libzmq3-dev cppzmq-dev librosbag-storage-dev pluginlib-dev libclass-loader-dev librcpputils-dev librcutils-dev
+  libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev
+  ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-rosgraph-msgs
+  python3-genmsg python3-gencpp python3-rosbag python3-yaml python3-numpy python3-matplotlib
+  # physics
+  libbullet-dev libbullet-extras-dev liburdfdom-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q '^install ok installed$' || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "install-deps: need root (or sudo) to install: ${missing[*]}" >&2; exit 1; }
+  sudo="sudo"
+fi
+
+echo "install-deps: installing ${#missing[@]} packages: ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -q || { echo "install-deps: apt-get update failed" >&2; exit 1; }
+$sudo apt-get install -y -q --no-install-recommends "${missing[@]}" \
+  || { echo "install-deps: apt-get install failed for: ${missing[*]}" >&2; exit 1; }
+echo "install-deps: done"
