@@ -1,0 +1,170 @@
+#include "bridge/config.h"
+
+#include <algorithm>
+#include <fstream>
+
+namespace iapsim::bridge {
+namespace {
+
+size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string JoinKeys(const std::set<std::string>& keys) {
+  std::string out;
+  for (const auto& k : keys) out += (out.empty() ? "" : ", ") + k;
+  return out;
+}
+
+}  // namespace
+
+YamlMap::YamlMap(const YAML::Node& node, std::string file, std::string key_path)
+    : node_(node), file_(std::move(file)), key_path_(std::move(key_path)), resolved_(YAML::NodeType::Map) {
+  if (node_ && !node_.IsNull() && !node_.IsMap()) {
+    throw ConfigError(Where(node_) + (key_path_.empty() ? "document" : key_path_) + ": expected a map of keys, got a " +
+                      KindOf(node_));
+  }
+}
+
+std::string YamlMap::KindOf(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Map: return "map";
+    case YAML::NodeType::Sequence: return "list";
+    case YAML::NodeType::Scalar: return "value";
+    default: return "null value";
+  }
+}
+
+std::string YamlMap::Where(const YAML::Node& node) const {
+  const YAML::Mark mark = node ? node.Mark() : YAML::Mark::null_mark();
+  if (mark.is_null()) return file_ + ": ";
+  return file_ + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1) + ": ";
+}
+
+YAML::Node YamlMap::Child(const std::string& key) const {
+  if (!node_ || !node_.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
+  const YAML::Node& map = node_;
+  for (const auto& entry : map) {
+    if (entry.first.Scalar() == key) return entry.second;
+  }
+  return YAML::Node(YAML::NodeType::Undefined);
+}
+
+void YamlMap::Fail(const std::string& key, const std::string& what) const {
+  const YAML::Node child = Child(key);
+  const YAML::Node& where = child ? child : node_;
+  std::string location = Where(where);
+  if (child && child.Mark().is_null()) location = file_ + ": (set on the command line) ";
+  throw ConfigError(location + PathOf(key) + ": " + what);
+}
+
+void YamlMap::OptionalChoice(const std::string& key, std::string* value, const std::vector<std::string>& choices) {
+  Optional(key, value);
+  if (std::find(choices.begin(), choices.end(), *value) == choices.end()) {
+    std::string list;
+    for (const auto& c : choices) list += (list.empty() ? "" : ", ") + c;
+    Fail(key, "must be one of " + list + ", got '" + *value + "'");
+  }
+}
+
+YamlMap YamlMap::Map(const std::string& key) {
+  known_.insert(key);
+  YamlMap child(Child(key), file_, PathOf(key));
+  resolved_[key] = child.resolved_;  // nodes share identity: the child fills it in as it is read
+  return child;
+}
+
+std::vector<std::string> YamlMap::Keys() const {
+  std::vector<std::string> keys;
+  if (node_ && node_.IsMap()) {
+    for (const auto& entry : node_) keys.push_back(entry.first.Scalar());
+  }
+  return keys;
+}
+
+YAML::Node YamlMap::Raw(const std::string& key) {
+  known_.insert(key);
+  YAML::Node child = Child(key);
+  if (child) resolved_[key] = child;
+  return child;
+}
+
+void YamlMap::Finish() {
+  if (!node_ || !node_.IsMap()) return;
+  for (const auto& entry : node_) {
+    const std::string key = entry.first.Scalar();
+    if (known_.count(key)) continue;
+    std::string message = "unknown key";
+    const std::set<std::string>& candidates = known_;
+    std::string best;
+    size_t best_distance = 3;
+    for (const auto& c : candidates) {
+      const size_t d = EditDistance(key, c);
+      if (d < best_distance) best_distance = d, best = c;
+    }
+    if (!best.empty()) {
+      message += " (did you mean '" + best + "'?)";
+    } else if (!candidates.empty()) {
+      message += "; known keys here: " + JoinKeys(candidates);
+    }
+    throw ConfigError(Where(entry.first) + PathOf(key) + ": " + message);
+  }
+}
+
+YAML::Node LoadYamlFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open the file");
+  try {
+    return YAML::Load(in);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
+                      ": YAML syntax error: " + e.msg);
+  }
+}
+
+void ApplyOverride(YAML::Node root, const std::string& assignment, const std::string& file) {
+  const auto equals = assignment.find('=');
+  if (equals == std::string::npos || equals == 0) {
+    throw ConfigError(file + ": --set '" + assignment + "': expected KEY=VALUE (for example clock.step_s=0.002)");
+  }
+  const std::string path = assignment.substr(0, equals);
+  YAML::Node value;
+  try {
+    value = YAML::Load(assignment.substr(equals + 1));
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(file + ": --set '" + assignment + "': value is not valid YAML: " + e.msg);
+  }
+  // walk the dotted path; keys are created as needed and validated with the rest of the file afterwards
+  std::vector<std::string> keys;
+  size_t start = 0;
+  while (true) {
+    const auto dot = path.find('.', start);
+    keys.push_back(path.substr(start, dot - start));
+    if (dot == std::string::npos) break;
+    start = dot + 1;
+  }
+  std::vector<YAML::Node> chain{root};
+  for (size_t i = 0; i + 1 < keys.size(); ++i) {
+    YAML::Node next = chain.back()[keys[i]];
+    if (!next.IsDefined() || next.IsNull()) next = YAML::Node(YAML::NodeType::Map);
+    if (!next.IsMap()) {
+      throw ConfigError(file + ": --set '" + assignment + "': '" + keys[i] + "' is not a map of keys");
+    }
+    chain.back()[keys[i]] = next;
+    chain.push_back(next);
+  }
+  chain.back()[keys.back()] = value;
+}
+
+}  // namespace iapsim::bridge

@@ -1,0 +1,108 @@
+#pragma once
+// Strict YAML configuration reading: every key is known, typed and range-checked, and every error names the
+// file, the line and the key. Values read (defaults included) are recorded, so the resolved configuration
+// can be written back out exactly as it was used.
+
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace iapsim::bridge {
+
+/// Bad configuration. what() reads "FILE:LINE:COLUMN: KEY: what was expected".
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// A YAML mapping being read into a config struct.
+class YamlMap {
+ public:
+  /// `node` must be a map (or null, read as empty). `file` and `key_path` are for error messages.
+  YamlMap(const YAML::Node& node, std::string file, std::string key_path = "");
+
+  /// Reads `key` into `value` when present (keeping `value` as the default otherwise).
+  template <class T>
+  void Optional(const std::string& key, T* value) {
+    known_.insert(key);
+    const YAML::Node child = Child(key);
+    if (child) *value = Convert<T>(child, key);
+    resolved_[key] = *value;
+  }
+
+  template <class T>
+  void Required(const std::string& key, T* value) {
+    if (!Child(key)) Fail(key, "is required");
+    Optional(key, value);
+  }
+
+  /// Numeric value within [lo, hi].
+  template <class T>
+  void OptionalInRange(const std::string& key, T* value, T lo, T hi) {
+    Optional(key, value);
+    if (*value < lo || *value > hi) {
+      Fail(key, "must be in [" + YAML::Dump(YAML::Node(lo)) + ", " + YAML::Dump(YAML::Node(hi)) + "], got " +
+                    YAML::Dump(YAML::Node(*value)));
+    }
+  }
+
+  /// One of `choices`.
+  void OptionalChoice(const std::string& key, std::string* value, const std::vector<std::string>& choices);
+
+  /// A nested map (empty when absent). Its resolved values appear under `key` in this map's Resolved().
+  YamlMap Map(const std::string& key);
+  /// Keys of a nested map, in file order.
+  std::vector<std::string> Keys() const;
+  bool Has(const std::string& key) const { return static_cast<bool>(Child(key)); }
+  /// The raw node of a key, marked as known (for sections another component validates).
+  YAML::Node Raw(const std::string& key);
+
+  /// Unknown keys are errors (with a spelling suggestion). Call after reading every key.
+  void Finish();
+  /// What was read, defaults included, in reading order.
+  YAML::Node Resolved() const { return resolved_; }
+
+  [[noreturn]] void Fail(const std::string& key, const std::string& what) const;
+  const std::string& file() const { return file_; }
+  std::string PathOf(const std::string& key) const { return key_path_.empty() ? key : key_path_ + "." + key; }
+
+ private:
+  YAML::Node Child(const std::string& key) const;
+  std::string Where(const YAML::Node& node) const;
+
+  template <class T>
+  T Convert(const YAML::Node& node, const std::string& key) const {
+    if (!node.IsScalar()) Fail(key, "expected " + TypeName<T>() + ", got a " + KindOf(node));
+    T out{};
+    if (!YAML::convert<T>::decode(node, out)) {
+      Fail(key, "expected " + TypeName<T>() + ", got '" + node.Scalar() + "'");
+    }
+    return out;
+  }
+
+  template <class T>
+  static std::string TypeName() {
+    if constexpr (std::is_same_v<T, bool>) return "true or false";
+    if constexpr (std::is_integral_v<T>) return "an integer";
+    if constexpr (std::is_floating_point_v<T>) return "a number";
+    return "a string";
+  }
+  static std::string KindOf(const YAML::Node& node);
+
+  YAML::Node node_;
+  std::string file_;
+  std::string key_path_;
+  std::set<std::string> known_;
+  YAML::Node resolved_;
+};
+
+/// Loads a YAML file; a missing or malformed file is a ConfigError naming it (and the line of a syntax error).
+YAML::Node LoadYamlFile(const std::string& path);
+
+/// Applies "a.b.c=value" (value parsed as YAML) onto `root`; the key path must exist unless `allow_new`.
+void ApplyOverride(YAML::Node root, const std::string& assignment, const std::string& file);
+
+}  // namespace iapsim::bridge

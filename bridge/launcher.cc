@@ -1,0 +1,482 @@
+#include "bridge/launcher.h"
+
+#include <fcntl.h>
+#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_sinks.h>
+#include <spdlog/spdlog.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "bridge/control_channel.h"
+
+namespace iapsim::bridge {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using std::chrono::milliseconds;
+
+// the launcher's own stop request (Ctrl-C, SIGTERM); signals are process-wide by nature
+std::atomic<int> launcher_signal{0};
+extern "C" void OnLauncherSignal(int signal) { launcher_signal = signal; }
+
+struct Captured {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string ReadAll(int fd) {
+  std::string text;
+  char buffer[4096];
+  ssize_t n;
+  while ((n = read(fd, buffer, sizeof(buffer))) > 0) text.append(buffer, static_cast<size_t>(n));
+  return text;
+}
+
+std::vector<char*> ArgvOf(std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  return argv;
+}
+
+// Runs a short command (a process's --check) and captures its output. stderr goes to a temporary file so
+// that neither pipe can fill up and block the child.
+Captured RunCaptured(std::vector<std::string> args) {
+  Captured result;
+  int out_pipe[2];
+  if (pipe(out_pipe) != 0) throw std::runtime_error("pipe: " + std::string(std::strerror(errno)));
+  FILE* err_file = std::tmpfile();
+  auto argv = ArgvOf(args);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    dup2(out_pipe[1], STDOUT_FILENO);
+    dup2(fileno(err_file), STDERR_FILENO);
+    close(out_pipe[0]);
+    close(out_pipe[1]);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  close(out_pipe[1]);
+  result.out = ReadAll(out_pipe[0]);
+  close(out_pipe[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  std::rewind(err_file);
+  result.err = ReadAll(fileno(err_file));
+  std::fclose(err_file);
+  return result;
+}
+
+std::string Trimmed(std::string text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  return text;
+}
+
+std::string UtcStamp() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof(text), "%Y%m%d-%H%M%S", &utc);
+  return text;
+}
+
+std::string DescribeExit(int status) {
+  if (WIFEXITED(status)) return "exited with code " + std::to_string(WEXITSTATUS(status));
+  if (WIFSIGNALED(status)) {
+    const int sig = WTERMSIG(status);
+    return "was killed by signal " + std::to_string(sig) + " (" + strsignal(sig) + ")";
+  }
+  return "ended (status " + std::to_string(status) + ")";
+}
+
+struct Child {
+  std::string name;
+  std::string log_path;
+  pid_t pid = -1;
+  bool exited = false;
+  int status = 0;
+  bool ready = false;
+  bool said_bye = false;
+  double hang_timeout_s = 0.5;
+  double startup_timeout_s = 30.0;
+  Clock::time_point last_heartbeat;
+  int64_t sim_ns = 0;
+  nlohmann::json report;
+};
+
+pid_t Spawn(std::vector<std::string> args, const std::string& log_path) {
+  auto argv = ArgvOf(args);
+  const pid_t parent = getpid();
+  const pid_t pid = fork();
+  if (pid < 0) throw std::runtime_error("fork failed: " + std::string(std::strerror(errno)));
+  if (pid == 0) {
+    // only async-signal-safe calls between fork and exec
+    sigset_t none;
+    sigemptyset(&none);
+    sigprocmask(SIG_SETMASK, &none, nullptr);
+    signal(SIGINT, SIG_DFL);
+    signal(SIGTERM, SIG_DFL);
+    prctl(PR_SET_PDEATHSIG, SIGTERM);  // launcher gone -> children go too
+    if (getppid() != parent) _exit(1);
+    setpgid(0, 0);  // Ctrl-C reaches the launcher only; it stops the children in order
+    const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) {
+      dup2(fd, STDOUT_FILENO);
+      dup2(fd, STDERR_FILENO);
+      close(fd);
+    }
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+std::string LastLines(const std::string& path, size_t count) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  std::string line;
+  while (std::getline(in, line)) lines.push_back(line);
+  std::string out;
+  for (size_t i = lines.size() > count ? lines.size() - count : 0; i < lines.size(); ++i) {
+    out += "\n    " + lines[i];
+  }
+  return out;
+}
+
+class Supervisor {
+ public:
+  Supervisor(const Scenario& scenario, std::vector<Child> children, ControlServer& server,
+             std::shared_ptr<spdlog::logger> log, bool progress)
+      : scenario_(scenario), children_(std::move(children)), server_(server), log_(std::move(log)),
+        progress_(progress && isatty(STDERR_FILENO)) {}
+
+  // Returns the failure message, empty when the run completed.
+  std::string Run() {
+    started_ = Clock::now();
+    for (auto& child : children_) child.last_heartbeat = started_;
+    while (!AllExited()) {
+      ReadControl();
+      Reap();
+      if (!stopping_) Watch();
+      if (stopping_) Escalate();
+      ShowProgress();
+    }
+    if (progress_) std::fprintf(stderr, "\n");
+    return failure_;
+  }
+
+  const std::vector<Child>& children() const { return children_; }
+  double wall_s() const { return std::chrono::duration<double>(Clock::now() - running_since_).count(); }
+  bool interrupted() const { return interrupted_; }
+
+ private:
+  Child* Find(const std::string& name) {
+    for (auto& c : children_) {
+      if (c.name == name) return &c;
+    }
+    return nullptr;
+  }
+
+  bool AllExited() const {
+    for (const auto& c : children_) {
+      if (!c.exited) return false;
+    }
+    return true;
+  }
+
+  void ReadControl() {
+    auto timeout = milliseconds(10);
+    while (auto message = server_.Receive(timeout)) {
+      timeout = milliseconds(0);
+      Child* child = Find(message->process);
+      if (!child) continue;
+      child->last_heartbeat = Clock::now();
+      if (message->kind == "ready") {
+        child->ready = true;
+      } else if (message->kind == "heartbeat") {
+        child->sim_ns = std::atoll(message->body.c_str());
+      } else if (message->kind == "done") {
+        completed_ = true;
+        log_->info("run complete: {} reached the end of the scenario", child->name);
+        Stop(milliseconds(5000));
+      } else if (message->kind == "error") {
+        Fail("process '" + child->name + "' failed: " + message->body);
+      } else if (message->kind == "bye") {
+        child->said_bye = true;
+        child->report = nlohmann::json::parse(message->body, nullptr, /*allow_exceptions=*/false);
+      }
+    }
+  }
+
+  void Reap() {
+    for (auto& child : children_) {
+      if (child.exited) continue;
+      int status = 0;
+      if (waitpid(child.pid, &status, WNOHANG) != child.pid) continue;
+      child.exited = true;
+      child.status = status;
+      const bool clean = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+      if (!stopping_ || (!clean && !completed_ && failure_.empty())) {
+        Fail("process '" + child.name + "' (pid " + std::to_string(child.pid) + ") " + DescribeExit(status) +
+             (stopping_ ? "" : " before the end of the run") + "; its log " + child.log_path + ":" +
+             LastLines(child.log_path, 5));
+      } else if (!clean) {
+        log_->warn("process '{}' {} while stopping", child.name, DescribeExit(status));
+      }
+    }
+  }
+
+  void Watch() {
+    const auto now = Clock::now();
+    if (launcher_signal != 0) {
+      interrupted_ = true;
+      Fail(std::string("interrupted by ") + strsignal(launcher_signal.load()));
+      return;
+    }
+    if (!running_) {
+      bool all_ready = true;
+      for (auto& child : children_) {
+        if (child.ready) continue;
+        all_ready = false;
+        if (now - started_ > std::chrono::duration<double>(child.startup_timeout_s)) {
+          Fail("process '" + child.name + "' did not become ready within " +
+               std::to_string(child.startup_timeout_s) + " s; its log " + child.log_path + ":" +
+               LastLines(child.log_path, 5));
+          return;
+        }
+      }
+      if (!all_ready) return;
+      for (auto& child : children_) {
+        server_.Send(child.name, "start");
+        child.last_heartbeat = now;
+      }
+      running_ = true;
+      running_since_ = now;
+      log_->info("all {} processes ready; clock started", children_.size());
+      return;
+    }
+    for (auto& child : children_) {
+      if (now - child.last_heartbeat > std::chrono::duration<double>(child.hang_timeout_s)) {
+        const double silent_s = std::chrono::duration<double>(now - child.last_heartbeat).count();
+        kill(child.pid, SIGKILL);  // a hung process will not answer a stop request
+        Fail("process '" + child.name + "' is not responding (no heartbeat for " + std::to_string(silent_s) +
+             " s, hang_timeout_s = " + std::to_string(child.hang_timeout_s) + ")");
+        return;
+      }
+    }
+  }
+
+  void Fail(const std::string& message) {
+    if (failure_.empty() && !completed_) {
+      failure_ = message;
+      log_->error("{}", message);
+    }
+    Stop(milliseconds(300));
+  }
+
+  void Stop(milliseconds grace) {
+    if (stopping_) return;
+    stopping_ = true;
+    stop_deadline_ = Clock::now() + grace;
+    for (auto& child : children_) {
+      if (!child.exited) server_.Send(child.name, "stop");
+    }
+  }
+
+  // stop request -> SIGTERM -> SIGKILL
+  void Escalate() {
+    const auto now = Clock::now();
+    if (now < stop_deadline_) return;
+    const int sig = terminated_ ? SIGKILL : SIGTERM;
+    for (auto& child : children_) {
+      if (child.exited) continue;
+      log_->warn("process '{}' still running after stop; sending {}", child.name, strsignal(sig));
+      kill(child.pid, sig);
+    }
+    terminated_ = true;
+    stop_deadline_ = now + milliseconds(400);
+  }
+
+  void ShowProgress() {
+    if (!progress_ || !running_) return;
+    const auto now = Clock::now();
+    if (now - last_progress_ < milliseconds(250)) return;
+    last_progress_ = now;
+    const Child* owner = nullptr;
+    for (const auto& c : children_) {
+      if (c.name == scenario_.clock_owner) owner = &c;
+    }
+    const double sim_s = owner ? static_cast<double>(owner->sim_ns) * 1e-9 : 0.0;
+    std::string health;
+    for (const auto& c : children_) {
+      const bool late = now - c.last_heartbeat > std::chrono::duration<double>(c.hang_timeout_s / 2);
+      health += " " + c.name + (c.exited ? ":exited" : late ? ":slow" : ":ok");
+    }
+    std::fprintf(stderr, "\33[2K\r t = %.3f / %.3f s  x%.2f |%s", sim_s, scenario_.duration_s,
+                 sim_s / std::max(1e-9, wall_s()), health.c_str());
+  }
+
+  const Scenario& scenario_;
+  std::vector<Child> children_;
+  ControlServer& server_;
+  std::shared_ptr<spdlog::logger> log_;
+  bool progress_;
+  Clock::time_point started_, running_since_, stop_deadline_, last_progress_;
+  bool running_ = false, stopping_ = false, terminated_ = false, completed_ = false, interrupted_ = false;
+  std::string failure_;
+};
+
+std::string MakeRunDir(const LaunchOptions& options, const Scenario& scenario) {
+  fs::path dir = options.out_dir.empty() ? fs::path("runs") / (scenario.name + "-" + UtcStamp())
+                                         : fs::path(options.out_dir);
+  if (options.out_dir.empty()) {
+    const fs::path base = dir;
+    for (int i = 2; fs::exists(dir); ++i) dir = base.string() + "-" + std::to_string(i);
+  }
+  fs::create_directories(dir / "logs");
+  if (options.out_dir.empty()) {
+    // runs/latest -> the newest run, for `iapsim topics` and `iapsim echo`
+    std::error_code ignored;
+    fs::remove(dir.parent_path() / "latest", ignored);
+    fs::create_directory_symlink(dir.filename(), dir.parent_path() / "latest", ignored);
+  }
+  return dir.string();
+}
+
+}  // namespace
+
+std::string ExecutableDir() {
+  std::error_code error;
+  const fs::path self = fs::read_symlink("/proc/self/exe", error);
+  return error ? "." : self.parent_path().string();
+}
+
+LaunchResult Launch(const LaunchOptions& options) {
+  LaunchResult result;
+  Scenario scenario;
+  std::map<std::string, std::string> executables;
+  std::map<std::string, YAML::Node> resolved_params;
+  try {
+    scenario = LoadScenario(options.scenario_path, options.overrides);
+    for (const auto& p : scenario.processes) {
+      const std::string path = p.exec.find('/') == std::string::npos ? options.bin_dir + "/" + p.exec : p.exec;
+      if (access(path.c_str(), X_OK) != 0) {
+        throw ConfigError(options.scenario_path + ":" + std::to_string(p.line) + ": processes." + p.name +
+                          ".exec: no executable '" + path + "'");
+      }
+      executables[p.name] = path;
+      // each process validates its own params (unknown keys, types, files), with the scenario's line numbers
+      std::vector<std::string> check{path, "--check", "--scenario", options.scenario_path, "--node", p.name};
+      for (const auto& o : options.overrides) check.insert(check.end(), {"--set", o});
+      const Captured checked = RunCaptured(check);
+      if (checked.exit_code == 2) throw ConfigError(Trimmed(checked.err));
+      if (checked.exit_code != 0) {
+        throw std::runtime_error("process '" + p.name + "' (" + path + " --check) " +
+                                 (checked.exit_code == 127 ? "could not be started" : "failed") + ": " +
+                                 Trimmed(checked.err));
+      }
+      resolved_params[p.name] = YAML::Load(checked.out);
+    }
+  } catch (const ConfigError& e) {
+    result.exit_code = 2;
+    result.message = e.what();
+    return result;
+  } catch (const std::exception& e) {
+    result.exit_code = 1;
+    result.message = e.what();
+    return result;
+  }
+
+  // the run directory, with the configuration exactly as the processes will use it
+  result.run_dir = MakeRunDir(options, scenario);
+  const std::string run_id = std::to_string(getpid()) + "-" + std::to_string(Clock::now().time_since_epoch().count() % 1000000007);
+  AssignEndpoints(&scenario, run_id);
+  for (const auto& [name, params] : resolved_params) {
+    if (scenario.resolved["processes"][name]) scenario.resolved["processes"][name]["params"] = params;
+  }
+  const std::string resolved_path = result.run_dir + "/scenario.resolved.yaml";
+  {
+    YAML::Emitter out;
+    out << scenario.resolved;
+    std::ofstream(resolved_path) << out.c_str() << "\n";
+  }
+
+  auto stderr_sink = std::make_shared<spdlog::sinks::stderr_sink_mt>();
+  auto file_sink = std::make_shared<spdlog::sinks::basic_file_sink_mt>(result.run_dir + "/log.txt", true);
+  auto log = std::make_shared<spdlog::logger>("iapsim", spdlog::sinks_init_list{stderr_sink, file_sink});
+  log->set_pattern("[%H:%M:%S.%e] [launcher] [%l] %v");
+  stderr_sink->set_level(spdlog::level::warn);  // the terminal gets problems; log.txt gets everything
+  log->info("scenario {} ({} mode, {} s, seed {}), run directory {}", options.scenario_path,
+            ToString(scenario.mode), scenario.duration_s, scenario.seed, result.run_dir);
+
+  struct sigaction action {};
+  action.sa_handler = OnLauncherSignal;
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  launcher_signal = 0;
+
+  const auto wall_start = Clock::now();
+  ControlServer server(scenario.bus.control_endpoint);
+  std::vector<Child> children;
+  for (const auto& p : scenario.processes) {
+    Child child;
+    child.name = p.name;
+    child.log_path = result.run_dir + "/logs/" + p.name + ".log";
+    child.hang_timeout_s = p.hang_timeout_s;
+    child.startup_timeout_s = p.startup_timeout_s;
+    child.pid = Spawn({executables[p.name], "--scenario", resolved_path, "--node", p.name, "--run-dir",
+                       result.run_dir},
+                      child.log_path);
+    log->info("started {} (pid {}): {}", p.name, child.pid, executables[p.name]);
+    children.push_back(child);
+  }
+
+  Supervisor supervisor(scenario, children, server, log, options.progress);
+  const std::string failure = supervisor.Run();
+
+  // metrics.json: what the run measured, and every process's own report
+  nlohmann::json metrics;
+  metrics["scenario"] = scenario.name;
+  metrics["mode"] = ToString(scenario.mode);
+  metrics["seed"] = scenario.seed;
+  metrics["duration_s"] = scenario.duration_s;
+  metrics["clock_step_s"] = scenario.clock.step_s;
+  metrics["result"] = failure.empty() ? "completed" : "failed";
+  if (!failure.empty()) metrics["failure"] = failure;
+  const double wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
+  metrics["wall_time_s"] = wall_s;
+  for (const auto& child : supervisor.children()) {
+    nlohmann::json entry = child.report.is_object() ? child.report : nlohmann::json::object();
+    entry["exit"] = DescribeExit(child.status);
+    if (child.name == scenario.clock_owner && entry.contains("sim_time_s")) {
+      metrics["sim_time_s"] = entry["sim_time_s"];
+      metrics["real_time_factor"] = entry["sim_time_s"].get<double>() / std::max(1e-9, supervisor.wall_s());
+    }
+    metrics["processes"][child.name] = entry;
+  }
+  std::ofstream(result.run_dir + "/metrics.json") << metrics.dump(2) << "\n";
+
+  if (!failure.empty()) {
+    result.exit_code = supervisor.interrupted() ? 130 : 1;
+    result.message = failure;
+  }
+  log->info("run {} after {:.2f} s", failure.empty() ? "completed" : "failed", wall_s);
+  log->flush();
+  return result;
+}
+
+}  // namespace iapsim::bridge

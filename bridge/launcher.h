@@ -1,0 +1,35 @@
+#pragma once
+// Starts a scenario's process graph, supervises it and leaves a complete run directory.
+//
+// A crashed process (any exit before the end, or a signal), a hung one (no heartbeat within its
+// hang_timeout_s) or one that reports an error ends the run: every other process is told to stop, then
+// SIGTERM, then SIGKILL, so that the run is over within about a second and nothing is left behind. Children
+// also get SIGTERM if the launcher itself dies (PR_SET_PDEATHSIG).
+
+#include <string>
+#include <vector>
+
+#include "bridge/scenario.h"
+
+namespace iapsim::bridge {
+
+struct LaunchOptions {
+  std::string scenario_path;
+  std::vector<std::string> overrides;  // "key.path=value"
+  std::string out_dir;                 // empty: runs/<name>-<UTC time>
+  std::string bin_dir;                 // where process executables live
+  bool progress = false;               // one-line progress on stderr (when it is a terminal)
+};
+
+struct LaunchResult {
+  int exit_code = 0;     // 0 ok, 1 a process failed, 2 bad configuration, 130 interrupted
+  std::string run_dir;   // empty when nothing was started
+  std::string message;   // why it failed
+};
+
+LaunchResult Launch(const LaunchOptions& options);
+
+/// Directory holding the running executable (where sibling process executables are found).
+std::string ExecutableDir();
+
+}  // namespace iapsim::bridge

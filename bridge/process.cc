@@ -1,0 +1,363 @@
+#include "bridge/process.h"
+
+#include <iapsim_msgs/StepAck.h>
+#include <iapsim_msgs/Tick.h>
+#include <rosgraph_msgs/Clock.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
+#include <iostream>
+#include <thread>
+
+#include "bridge/control_channel.h"
+
+namespace iapsim::bridge {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using std::chrono::milliseconds;
+
+constexpr char kTickTopic[] = "/iapsim/tick";
+constexpr char kAckTopic[] = "/iapsim/ack";
+constexpr auto kHeartbeatPeriod = milliseconds(100);
+constexpr auto kControlPollPeriod = milliseconds(5);
+
+// signals are process-wide by nature; the handler only records which one arrived
+std::atomic<int> received_signal{0};
+
+extern "C" void OnStopSignal(int signal) {
+  received_signal = signal;
+  alarm(3);  // backstop: a process that cannot wind down within 3 s is ended by SIGALRM's default action
+}
+
+ros::Time ToRosTime(int64_t ns) {
+  ros::Time t;
+  t.fromNSec(static_cast<uint64_t>(ns));
+  return t;
+}
+
+nlohmann::json BusReport(const BusStats& stats) {
+  nlohmann::json topics = nlohmann::json::object();
+  for (const auto& [topic, c] : stats.topics) {
+    topics[topic] = {{"sent", c.sent}, {"dropped", c.dropped}, {"received", c.received}, {"lost", c.lost}};
+  }
+  return {{"topics", topics}, {"malformed", stats.malformed}};
+}
+
+class Runtime {
+ public:
+  Runtime(const Scenario& scenario, const ProcessConfig& self, Process& process, ControlClient& control)
+      : scenario_(scenario),
+        self_(self),
+        process_(process),
+        schedule_(scenario),
+        self_index_(schedule_.IndexOf(self.name)),
+        control_(control),
+        bus_(MakeBusOptions(scenario, self)),
+        last_ack_(schedule_.members().size(), -1) {}
+
+  // Returns the exit code. Exceptions from the process or the protocol propagate to ProcessMain.
+  int Run() {
+    process_.Setup(bus_);
+    bus_.Subscribe<iapsim_msgs::StepAck>(kAckTopic, [this](const iapsim_msgs::StepAck& ack, const MessageInfo&) {
+      OnAck(ack);
+    });
+    if (self_.role != ProcessRole::kClock) {
+      bus_.Subscribe<iapsim_msgs::Tick>(kTickTopic, [this](const iapsim_msgs::Tick& tick, const MessageInfo&) {
+        OnTick(tick);
+      });
+    }
+    if (!Handshake()) return Finish();
+    if (self_.role == ProcessRole::kClock) {
+      RunClock();
+    } else {
+      RunParticipant();
+    }
+    return Finish();
+  }
+
+ private:
+  static BusOptions MakeBusOptions(const Scenario& scenario, const ProcessConfig& self) {
+    BusOptions options;
+    options.node_name = self.name;
+    options.bind_endpoint = scenario.bus.endpoints.at(self.name);
+    for (const auto& [name, endpoint] : scenario.bus.endpoints) {
+      if (name != self.name) options.peer_endpoints.push_back(endpoint);
+    }
+    options.send_hwm = scenario.bus.send_hwm;
+    options.receive_hwm = scenario.bus.receive_hwm;
+    // lockstep never lets queues fill; elsewhere a slow subscriber must not stall the clock
+    options.drop_policy = scenario.mode == ClockMode::kLockstep ? DropPolicy::kBlock : DropPolicy::kDropNewest;
+    return options;
+  }
+
+  std::vector<std::string> Peers() const {
+    std::vector<std::string> peers;
+    for (const auto& p : scenario_.processes) {
+      if (p.name != self_.name) peers.push_back(p.name);
+    }
+    return peers;
+  }
+
+  bool Handshake() {
+    control_.Send("hello");
+    bus_.BeginHandshake();
+    const auto peers = Peers();
+    bool ready = false;
+    while (true) {
+      bus_.PublishHello();
+      bus_.Spin(milliseconds(5));
+      if (!ready && bus_.HandshakeComplete(peers)) {
+        control_.Send("ready");
+        ready = true;
+      }
+      if (StopRequested(/*poll_now=*/true)) return false;
+      if (start_received_) break;
+    }
+    bus_.EndHandshake();
+    return true;
+  }
+
+  // Polls the launcher (at most every kControlPollPeriod unless poll_now) and sends heartbeats.
+  bool StopRequested(bool poll_now = false) {
+    const auto now = Clock::now();
+    if (now - last_heartbeat_ >= kHeartbeatPeriod) {
+      control_.Send("heartbeat", std::to_string(sim_ns_));
+      last_heartbeat_ = now;
+    }
+    if (poll_now || now - last_control_poll_ >= kControlPollPeriod) {
+      last_control_poll_ = now;
+      while (auto message = control_.Receive(milliseconds(0))) {
+        if (message->kind == "start") start_received_ = true;
+        if (message->kind == "stop") stop_received_ = true;
+      }
+    }
+    if (received_signal != 0 && !stop_received_) {
+      spdlog::info("{}: signal {} received, stopping", self_.name, received_signal.load());
+      stop_received_ = true;
+    }
+    return stop_received_;
+  }
+
+  void RunClock() {
+    const uint64_t last = scenario_.last_step();
+    const int64_t step_ns = scenario_.step_ns();
+    const auto wall_start = Clock::now();
+    const auto ack_timeout = std::chrono::duration<double>(scenario_.clock.ack_timeout_s);
+    late_acks_.assign(schedule_.members().size(), 0);
+    iapsim_msgs::Tick tick;
+    rosgraph_msgs::Clock clock;
+    for (uint64_t k = 0; k <= last; ++k) {
+      if (StopRequested()) return;
+      const StepInfo info{k, static_cast<int64_t>(k) * step_ns, k == last};
+      sim_ns_ = info.stamp_ns;
+      process_.Step(info);
+      tick.step = k;
+      tick.stamp_ns = info.stamp_ns;
+      tick.final = info.final;
+      bus_.Publish(kTickTopic, tick);
+      clock.clock = ToRosTime(info.stamp_ns);
+      bus_.Publish("/clock", clock);
+
+      if (scenario_.mode == ClockMode::kRealtime) {
+        const auto target = wall_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                                             static_cast<double>(info.stamp_ns + step_ns) * 1e-9 /
+                                             scenario_.clock.realtime_factor));
+        while (Clock::now() < target) {
+          bus_.Spin(std::min(std::chrono::duration_cast<std::chrono::microseconds>(target - Clock::now()),
+                             std::chrono::microseconds(1000)));
+          if (StopRequested()) return;
+        }
+        CountLateAcks(k);
+        continue;
+      }
+      const auto deadline = Clock::now() + ack_timeout;
+      int missing;
+      while ((missing = FirstMissingAck(k)) >= 0) {
+        bus_.Spin(milliseconds(1));
+        if (StopRequested()) return;
+        if (Clock::now() > deadline) {
+          throw std::runtime_error("lockstep: process '" + schedule_.members()[missing].name +
+                                   "' did not acknowledge step " + std::to_string(k) + " (t = " +
+                                   std::to_string(static_cast<double>(info.stamp_ns) * 1e-9) + " s) within " +
+                                   std::to_string(scenario_.clock.ack_timeout_s) + " s");
+        }
+      }
+    }
+    finished_ = true;
+    control_.Send("done");
+    while (!StopRequested(/*poll_now=*/true)) bus_.Spin(milliseconds(5));
+  }
+
+  int FirstMissingAck(uint64_t k) const {
+    for (size_t m = 0; m < last_ack_.size(); ++m) {
+      const int member = static_cast<int>(m);
+      if (schedule_.Due(member, k) && schedule_.Awaited(member, scenario_.mode) &&
+          last_ack_[m] < static_cast<int64_t>(k)) {
+        return member;
+      }
+    }
+    return -1;
+  }
+
+  // realtime: a due participant whose ack for k has not arrived when k's wall-clock slot ends is late
+  void CountLateAcks(uint64_t k) {
+    for (size_t m = 0; m < last_ack_.size(); ++m) {
+      if (schedule_.Due(static_cast<int>(m), k) && last_ack_[m] < static_cast<int64_t>(k)) ++late_acks_[m];
+    }
+  }
+
+  void RunParticipant() {
+    while (!finished_ && !StopRequested()) bus_.Spin(milliseconds(5));
+    while (!StopRequested(/*poll_now=*/true)) bus_.Spin(milliseconds(5));
+  }
+
+  void OnAck(const iapsim_msgs::StepAck& ack) {
+    const int member = schedule_.IndexOf(ack.node);
+    if (member < 0) return;
+    last_ack_[member] = std::max(last_ack_[member], static_cast<int64_t>(ack.step));
+    if (process_.StepsAfterPeers()) StepWaitingTicks();
+  }
+
+  void OnTick(const iapsim_msgs::Tick& tick) {
+    sim_ns_ = tick.stamp_ns;
+    if (!schedule_.Due(self_index_, tick.step)) {
+      finished_ = finished_ || tick.final;
+      return;
+    }
+    waiting_ticks_.push_back(StepInfo{tick.step, tick.stamp_ns, static_cast<bool>(tick.final)});
+    StepWaitingTicks();
+  }
+
+  // steps every due tick whose prerequisites are met, in order (acts inside the bus callback, so in realtime
+  // the process sees the messages of step k, not those of k+1 still queued behind the tick)
+  void StepWaitingTicks() {
+    while (!waiting_ticks_.empty()) {
+      const StepInfo info = waiting_ticks_.front();
+      if (process_.StepsAfterPeers() && !PeersAcked(info.step)) return;
+      waiting_ticks_.erase(waiting_ticks_.begin());
+      process_.Step(info);
+      iapsim_msgs::StepAck ack;
+      ack.step = info.step;
+      ack.node = self_.name;
+      bus_.Publish(kAckTopic, ack);
+      finished_ = finished_ || info.final;
+    }
+  }
+
+  bool PeersAcked(uint64_t k) const {
+    for (size_t m = 0; m < last_ack_.size(); ++m) {
+      const int member = static_cast<int>(m);
+      if (member == self_index_ || !schedule_.Due(member, k)) continue;
+      if (last_ack_[m] < static_cast<int64_t>(k)) return false;
+    }
+    return true;
+  }
+
+  int Finish() {
+    nlohmann::json process_report = nlohmann::json::object();
+    process_.Finish(&process_report);
+    nlohmann::json report = {{"bus", BusReport(bus_.stats())}, {"process", process_report},
+                             {"completed", finished_}, {"sim_time_s", static_cast<double>(sim_ns_) * 1e-9}};
+    if (!late_acks_.empty()) {
+      nlohmann::json late = nlohmann::json::object();
+      for (size_t m = 0; m < late_acks_.size(); ++m) late[schedule_.members()[m].name] = late_acks_[m];
+      report["late_acks"] = late;
+    }
+    control_.Send("bye", report.dump());
+    return 0;
+  }
+
+  const Scenario& scenario_;
+  const ProcessConfig& self_;
+  Process& process_;
+  StepSchedule schedule_;
+  int self_index_;
+  ControlClient& control_;
+  Bus bus_;
+  std::vector<int64_t> last_ack_;  // per schedule member: highest step acknowledged
+  std::vector<uint64_t> late_acks_;
+  std::vector<StepInfo> waiting_ticks_;
+  int64_t sim_ns_ = 0;
+  bool start_received_ = false;
+  bool stop_received_ = false;
+  bool finished_ = false;
+  Clock::time_point last_heartbeat_{};
+  Clock::time_point last_control_poll_{};
+};
+
+struct Arguments {
+  std::string scenario;
+  std::string node;
+  std::string run_dir;
+  std::vector<std::string> overrides;
+  bool check = false;
+};
+
+}  // namespace
+
+int ProcessMain(int argc, char** argv, const std::string& description, const ProcessFactory& factory) {
+  Arguments args;
+  CLI::App app(description);
+  app.add_option("--scenario", args.scenario, "scenario YAML (the run's scenario.resolved.yaml when launched)")
+      ->required();
+  app.add_option("--node", args.node, "this process's name in the scenario")->required();
+  app.add_option("--run-dir", args.run_dir, "run directory for outputs");
+  app.add_option("--set", args.overrides, "override a scenario key: KEY=VALUE");
+  app.add_flag("--check", args.check, "validate the configuration, print the resolved params and exit");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+
+  spdlog::set_pattern("[%H:%M:%S.%e] [" + args.node + "] [%l] %v");
+  std::unique_ptr<Process> process;
+  Scenario scenario;
+  const ProcessConfig* self = nullptr;
+  try {
+    scenario = LoadScenario(args.scenario, args.overrides);
+    self = scenario.Find(args.node);
+    if (!self) throw ConfigError(args.scenario + ": processes: no process named '" + args.node + "'");
+    const ProcessContext context{scenario, *self, args.run_dir, scenario.SeedFor(self->name)};
+    YamlMap params(self->params, args.scenario, "processes." + self->name + ".params");
+    process = factory(context, params);
+    params.Finish();
+    if (args.check) {
+      YAML::Emitter out;
+      out << params.Resolved();
+      std::cout << out.c_str() << std::endl;
+      return 0;
+    }
+  } catch (const ConfigError& e) {
+    std::cerr << e.what() << std::endl;
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << args.node << ": " << e.what() << std::endl;
+    return args.check ? 2 : 1;
+  }
+
+  struct sigaction action {};
+  action.sa_handler = OnStopSignal;
+  sigaction(SIGTERM, &action, nullptr);
+  sigaction(SIGINT, &action, nullptr);
+
+  try {
+    ControlClient control(scenario.bus.control_endpoint, self->name);
+    try {
+      Runtime runtime(scenario, *self, *process, control);
+      return runtime.Run();
+    } catch (const std::exception& e) {
+      control.Send("error", e.what());
+      throw;
+    }
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());  // stderr is the process's log file
+    return 1;
+  }
+}
+
+}  // namespace iapsim::bridge

@@ -1,0 +1,18 @@
+#pragma once
+// The recorder process: writes every bus topic (minus recording.exclude) to <run>/run.bag.
+//
+// Determinism: messages are not written in arrival order (which interleaves publishers by chance) but per
+// step: a publisher's messages up to its acknowledgement (or tick) of step k are written when the recorder
+// closes step k, publishers in name order, each in its own send order. In lockstep the recorder is a
+// participant that closes k only after every other process acknowledged k, so it loses nothing and two runs
+// write byte-identical bags.
+
+#include <memory>
+
+#include "bridge/process.h"
+
+namespace iapsim::bridge {
+
+std::unique_ptr<Process> MakeRecorder(const ProcessContext& context, YamlMap& params);
+
+}  // namespace iapsim::bridge

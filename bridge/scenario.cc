@@ -1,0 +1,225 @@
+#include "bridge/scenario.h"
+
+#include <cmath>
+#include <functional>
+
+namespace iapsim::bridge {
+namespace {
+
+constexpr char kRecorderName[] = "recorder";
+
+ClockMode ParseMode(const std::string& mode) {
+  if (mode == "realtime") return ClockMode::kRealtime;
+  if (mode == "fast") return ClockMode::kFast;
+  return ClockMode::kLockstep;
+}
+
+ProcessRole ParseRole(const std::string& role) {
+  if (role == "clock") return ProcessRole::kClock;
+  if (role == "observer") return ProcessRole::kObserver;
+  return ProcessRole::kParticipant;
+}
+
+void ReadTopicList(YamlMap& map, const std::string& key, std::vector<std::string>* topics) {
+  const YAML::Node node = map.Raw(key);
+  if (!node) return;
+  if (!node.IsSequence()) map.Fail(key, "expected a list of topic prefixes");
+  topics->clear();
+  for (const auto& item : node) {
+    if (!item.IsScalar() || item.Scalar().empty() || item.Scalar()[0] != '/') {
+      map.Fail(key, "every entry must be a topic prefix starting with '/'");
+    }
+    topics->push_back(item.Scalar());
+  }
+}
+
+// 64-bit FNV-1a, stable across platforms and runs (std::hash is not guaranteed to be)
+uint64_t StableHash(const std::string& text, uint64_t seed) {
+  uint64_t hash = 1469598103934665603ull ^ seed;
+  for (const unsigned char c : text) hash = (hash ^ c) * 1099511628211ull;
+  return hash;
+}
+
+}  // namespace
+
+const char* ToString(ClockMode mode) {
+  switch (mode) {
+    case ClockMode::kLockstep: return "lockstep";
+    case ClockMode::kFast: return "fast";
+    case ClockMode::kRealtime: return "realtime";
+  }
+  return "?";
+}
+
+const char* ToString(ProcessRole role) {
+  switch (role) {
+    case ProcessRole::kClock: return "clock";
+    case ProcessRole::kParticipant: return "participant";
+    case ProcessRole::kObserver: return "observer";
+  }
+  return "?";
+}
+
+int64_t Scenario::step_ns() const { return std::llround(clock.step_s * 1e9); }
+
+uint64_t Scenario::last_step() const {
+  return static_cast<uint64_t>(std::llround(duration_s * 1e9 / static_cast<double>(step_ns())));
+}
+
+const ProcessConfig* Scenario::Find(const std::string& process) const {
+  for (const auto& p : processes) {
+    if (p.name == process) return &p;
+  }
+  return nullptr;
+}
+
+uint64_t Scenario::SeedFor(const std::string& process) const { return StableHash(process, seed); }
+
+Scenario LoadScenario(const std::string& path, const std::vector<std::string>& overrides) {
+  YAML::Node root = LoadYamlFile(path);
+  for (const auto& assignment : overrides) ApplyOverride(root, assignment, path);
+
+  Scenario s;
+  s.file = path;
+  YamlMap top(root, path);
+  top.Required("name", &s.name);
+  top.Optional("description", &s.description);
+  std::string mode = "lockstep";
+  top.OptionalChoice("mode", &mode, {"lockstep", "fast", "realtime"});
+  s.mode = ParseMode(mode);
+  top.OptionalInRange("duration_s", &s.duration_s, 1e-6, 1e7);
+  top.Optional("seed", &s.seed);
+
+  YamlMap clock = top.Map("clock");
+  clock.OptionalInRange("step_s", &s.clock.step_s, 1e-6, 1.0);
+  clock.OptionalInRange("ack_timeout_s", &s.clock.ack_timeout_s, 0.01, 3600.0);
+  clock.OptionalInRange("realtime_factor", &s.clock.realtime_factor, 1e-3, 1e3);
+  clock.Finish();
+  const double steps = s.duration_s / s.clock.step_s;
+  if (std::fabs(steps - std::round(steps)) > 1e-6 * std::max(1.0, steps)) {
+    top.Fail("duration_s", "must be a whole number of clock steps (clock.step_s = " +
+                               std::to_string(s.clock.step_s) + ")");
+  }
+
+  YamlMap bus = top.Map("bus");
+  bus.OptionalChoice("transport", &s.bus.transport, {"ipc", "tcp"});
+  bus.OptionalInRange("tcp_base_port", &s.bus.tcp_base_port, 1024, 65000);
+  bus.OptionalInRange("send_hwm", &s.bus.send_hwm, 1, 10000000);
+  bus.OptionalInRange("receive_hwm", &s.bus.receive_hwm, 1, 10000000);
+  bus.Optional("control_endpoint", &s.bus.control_endpoint);
+  YamlMap endpoints = bus.Map("endpoints");
+  for (const auto& process : endpoints.Keys()) endpoints.Required(process, &s.bus.endpoints[process]);
+  bus.Finish();
+
+  YamlMap recording = top.Map("recording");
+  recording.Optional("enabled", &s.recording.enabled);
+  ReadTopicList(recording, "include", &s.recording.include);
+  ReadTopicList(recording, "exclude", &s.recording.exclude);
+  recording.Finish();
+
+  const YAML::Node processes = top.Raw("processes");
+  if (!processes || !processes.IsMap() || processes.size() == 0) {
+    top.Fail("processes", "expected a map of process name -> {exec, role, rate_hz, params}");
+  }
+  YamlMap process_maps = top.Map("processes");
+  for (const std::string& name : process_maps.Keys()) {
+    if (name.empty() || name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") != std::string::npos) {
+      process_maps.Fail(name, "process names use lowercase letters, digits and '_'");
+    }
+    if (name == kRecorderName && s.recording.enabled) {
+      process_maps.Fail(name, "'recorder' is added by the launcher when recording.enabled is true");
+    }
+    ProcessConfig p;
+    p.name = name;
+    const YAML::Node entry = processes[name];
+    p.line = entry.Mark().is_null() ? 0 : entry.Mark().line + 1;
+    YamlMap map = process_maps.Map(name);
+    map.Required("exec", &p.exec);
+    std::string role = "participant";
+    map.OptionalChoice("role", &role, {"clock", "participant", "observer"});
+    p.role = ParseRole(role);
+    map.OptionalInRange("rate_hz", &p.rate_hz, 0.0, 1e6);
+    map.OptionalInRange("hang_timeout_s", &p.hang_timeout_s, 0.05, 3600.0);
+    map.OptionalInRange("startup_timeout_s", &p.startup_timeout_s, 0.1, 3600.0);
+    p.params = map.Raw("params");
+    if (p.params && !p.params.IsMap() && !p.params.IsNull()) map.Fail("params", "expected a map");
+    if (!p.params) p.params = YAML::Node(YAML::NodeType::Map);
+    map.Finish();
+
+    if (p.rate_hz > 0) {
+      const double period_steps = 1.0 / (p.rate_hz * s.clock.step_s);
+      if (period_steps < 1.0 - 1e-9 || std::fabs(period_steps - std::round(period_steps)) > 1e-6) {
+        map.Fail("rate_hz", "must divide the clock rate " + std::to_string(1.0 / s.clock.step_s) +
+                                " Hz (a period of a whole number of clock steps)");
+      }
+    }
+    if (p.role == ProcessRole::kClock) {
+      if (!s.clock_owner.empty()) {
+        map.Fail("role", "only one process may own the clock ('" + s.clock_owner + "' already does)");
+      }
+      if (p.rate_hz != 0 && std::fabs(p.rate_hz * s.clock.step_s - 1.0) > 1e-9) {
+        map.Fail("rate_hz", "the clock owner runs every clock step; leave rate_hz out");
+      }
+      s.clock_owner = name;
+    }
+    s.processes.push_back(std::move(p));
+  }
+  if (s.clock_owner.empty()) top.Fail("processes", "no process has role: clock");
+  top.Finish();
+
+  if (s.recording.enabled) {
+    ProcessConfig recorder;
+    recorder.name = kRecorderName;
+    recorder.exec = "iapsim_recorder";
+    recorder.role = ProcessRole::kObserver;
+    recorder.params = YAML::Node(YAML::NodeType::Map);
+    s.processes.push_back(recorder);
+  }
+  s.resolved = top.Resolved();
+  return s;
+}
+
+void AssignEndpoints(Scenario* scenario, const std::string& run_id) {
+  YAML::Node bus = scenario->resolved["bus"];
+  YAML::Node endpoints(YAML::NodeType::Map);
+  int index = 0;
+  for (const auto& p : scenario->processes) {
+    // abstract unix sockets: no files left behind, no path-length limit from a deep run directory
+    const std::string endpoint = scenario->bus.transport == "tcp"
+                                     ? "tcp://127.0.0.1:" + std::to_string(scenario->bus.tcp_base_port + index)
+                                     : "ipc://@iapsim-" + run_id + "-" + p.name;
+    scenario->bus.endpoints[p.name] = endpoint;
+    endpoints[p.name] = endpoint;
+    ++index;
+  }
+  scenario->bus.control_endpoint = "ipc://@iapsim-" + run_id + "-launcher";
+  bus["control_endpoint"] = scenario->bus.control_endpoint;
+  bus["endpoints"] = endpoints;
+}
+
+StepSchedule::StepSchedule(const Scenario& scenario) {
+  for (const auto& p : scenario.processes) {
+    if (p.role == ProcessRole::kClock) continue;
+    const uint64_t period =
+        p.rate_hz > 0 ? static_cast<uint64_t>(std::llround(1.0 / (p.rate_hz * scenario.clock.step_s))) : 1;
+    members_.push_back(Member{p.name, p.role, period});
+  }
+}
+
+int StepSchedule::IndexOf(const std::string& name) const {
+  for (size_t i = 0; i < members_.size(); ++i) {
+    if (members_[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+bool StepSchedule::Awaited(int member, ClockMode mode) const {
+  switch (mode) {
+    case ClockMode::kLockstep: return true;
+    case ClockMode::kFast: return members_[member].role == ProcessRole::kParticipant;
+    case ClockMode::kRealtime: return false;
+  }
+  return true;
+}
+
+}  // namespace iapsim::bridge

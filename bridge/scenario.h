@@ -1,0 +1,109 @@
+#pragma once
+// A scenario: the process graph, its clock and bus, what is recorded. Loaded from YAML, validated strictly.
+
+#include <yaml-cpp/yaml.h>
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "bridge/config.h"
+
+namespace iapsim::bridge {
+
+/// lockstep: the clock waits for every participant and observer each step (deterministic, lossless).
+/// fast: unpaced; the clock waits for participants only (commands are never stale), observers keep up as they
+///       can and count what they miss. realtime: paced by the wall clock, waits for nobody, counts late acks.
+enum class ClockMode { kLockstep, kFast, kRealtime };
+
+/// clock: owns time (physics). participant: closes the loop (control). observer: only watches (recorder,
+/// render, sensors that nothing waits for in fast mode).
+enum class ProcessRole { kClock, kParticipant, kObserver };
+
+const char* ToString(ClockMode mode);
+const char* ToString(ProcessRole role);
+
+struct ClockConfig {
+  double step_s = 0.001;           // physics publish step: t_k = k * step
+  double ack_timeout_s = 2.0;      // lockstep/fast: a participant silent this long stops the run
+  double realtime_factor = 1.0;    // realtime: sim seconds per wall second
+};
+
+struct BusConfig {
+  std::string transport = "ipc";   // ipc (abstract unix sockets) or tcp (loopback)
+  int tcp_base_port = 17500;       // tcp: process i binds tcp_base_port + i
+  int send_hwm = 10000;
+  int receive_hwm = 10000;
+  // written by the launcher into scenario.resolved.yaml, so a process restarts from that file alone
+  std::map<std::string, std::string> endpoints;  // process -> its publisher endpoint
+  std::string control_endpoint;                  // the launcher's control socket
+};
+
+struct RecordingConfig {
+  bool enabled = true;
+  std::vector<std::string> include;            // topic prefixes; empty: every topic
+  std::vector<std::string> exclude{"/iapsim/"};  // protocol topics are not recorded by default
+};
+
+struct ProcessConfig {
+  std::string name;
+  std::string exec;                // executable in the build's bin/ folder, or an absolute path
+  ProcessRole role = ProcessRole::kParticipant;
+  double rate_hz = 0.0;            // 0: every clock step
+  double hang_timeout_s = 0.5;     // no heartbeat this long: the process is hung
+  double startup_timeout_s = 30.0;
+  YAML::Node params;               // validated by the process itself (`EXEC --check`)
+  int line = 0;                    // line of the process's entry in the scenario file, for messages
+};
+
+struct Scenario {
+  std::string file;
+  std::string name;
+  std::string description;
+  ClockMode mode = ClockMode::kLockstep;
+  double duration_s = 10.0;
+  uint64_t seed = 1;
+  ClockConfig clock;
+  BusConfig bus;
+  RecordingConfig recording;
+  std::vector<ProcessConfig> processes;  // recorder included when recording is enabled
+  std::string clock_owner;               // the process with role clock
+  YAML::Node resolved;                   // every value as used, defaults included
+
+  int64_t step_ns() const;
+  uint64_t last_step() const;            // K: steps run are k = 0..K, t_K = duration
+  const ProcessConfig* Find(const std::string& process) const;
+  /// Seed for one process's random streams, derived from the scenario seed and the process name.
+  uint64_t SeedFor(const std::string& process) const;
+};
+
+/// Loads and validates `path` with `overrides` ("key.path=value") applied. Throws ConfigError.
+Scenario LoadScenario(const std::string& path, const std::vector<std::string>& overrides = {});
+
+/// Gives every process a publisher endpoint and the launcher a control endpoint, unique to `run_id`, and
+/// records them in `scenario->resolved`.
+void AssignEndpoints(Scenario* scenario, const std::string& run_id);
+
+/// Which process must act (and acknowledge) at which step, and whom the clock waits for.
+class StepSchedule {
+ public:
+  explicit StepSchedule(const Scenario& scenario);
+
+  struct Member {
+    std::string name;
+    ProcessRole role;
+    uint64_t period_steps;  // due when k % period_steps == 0
+  };
+  /// Every process except the clock owner, in scenario order.
+  const std::vector<Member>& members() const { return members_; }
+  int IndexOf(const std::string& name) const;
+  bool Due(int member, uint64_t step) const { return step % members_[member].period_steps == 0; }
+  /// Whether the clock owner waits for this member's acknowledgement in `mode`.
+  bool Awaited(int member, ClockMode mode) const;
+
+ private:
+  std::vector<Member> members_;
+};
+
+}  // namespace iapsim::bridge

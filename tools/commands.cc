@@ -1,0 +1,227 @@
+#include "tools/commands.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "bridge/bag.h"
+#include "bridge/bus.h"
+#include "bridge/launcher.h"
+#include "bridge/message_format.h"
+#include "bridge/message_registry.h"
+#include "bridge/scenario.h"
+
+namespace iapsim::tools {
+namespace {
+
+using namespace iapsim::bridge;
+
+std::atomic<bool> interrupted{false};
+extern "C" void OnInterrupt(int) { interrupted = true; }
+
+std::vector<std::string> Overrides(const RunArgs& args) {
+  std::vector<std::string> overrides;
+  if (!args.mode.empty()) overrides.push_back("mode=" + args.mode);
+  if (args.duration_s) overrides.push_back("duration_s=" + std::to_string(*args.duration_s));
+  if (args.seed) overrides.push_back("seed=" + std::to_string(*args.seed));
+  overrides.insert(overrides.end(), args.overrides.begin(), args.overrides.end());
+  return overrides;
+}
+
+std::string YamlFlowList(const std::vector<std::string>& items) {
+  YAML::Node list(YAML::NodeType::Sequence);
+  for (const auto& item : items) list.push_back(item);
+  YAML::Emitter out;
+  out << YAML::Flow << list;
+  return out.c_str();
+}
+
+int Launch(const RunArgs& args, std::vector<std::string> overrides) {
+  LaunchOptions options;
+  options.scenario_path = args.scenario;
+  options.overrides = std::move(overrides);
+  options.out_dir = args.out_dir;
+  options.bin_dir = ExecutableDir();
+  options.progress = true;
+  const LaunchResult result = bridge::Launch(options);
+  if (result.exit_code == 2) {
+    std::cerr << "iapsim: invalid configuration: " << result.message << std::endl;
+    return 2;
+  }
+  if (result.exit_code != 0) {
+    std::cerr << "iapsim: run failed: " << result.message << std::endl;
+    if (!result.run_dir.empty()) std::cerr << "iapsim: partial outputs in " << result.run_dir << std::endl;
+    return result.exit_code;
+  }
+  // a short summary of what the run produced
+  std::ifstream metrics_file(result.run_dir + "/metrics.json");
+  const auto metrics = nlohmann::json::parse(metrics_file, nullptr, false);
+  std::printf("run complete: %s\n", result.run_dir.c_str());
+  if (metrics.is_object() && metrics.contains("sim_time_s")) {
+    std::printf("  sim time %.3f s in %.2f s wall (x%.2f real time), mode %s\n", metrics["sim_time_s"].get<double>(),
+                metrics["wall_time_s"].get<double>(), metrics["real_time_factor"].get<double>(),
+                metrics["mode"].get<std::string>().c_str());
+  }
+  std::printf("  %s/scenario.resolved.yaml   configuration as used\n", result.run_dir.c_str());
+  std::printf("  %s/metrics.json             figures of the run\n", result.run_dir.c_str());
+  if (metrics.is_object() && metrics["processes"].contains("recorder")) {
+    const auto& recorded = metrics["processes"]["recorder"]["process"]["recorded"];
+    uint64_t total = 0;
+    for (const auto& [topic, count] : recorded.items()) total += count.get<uint64_t>();
+    std::printf("  %s/run.bag                  %llu messages on %zu topics (iapsim info)\n", result.run_dir.c_str(),
+                static_cast<unsigned long long>(total), recorded.size());
+  }
+  std::printf("  %s/log.txt, logs/           launcher and per-process logs\n", result.run_dir.c_str());
+  return 0;
+}
+
+// A bus node for command-line inspection of a running graph: it connects to every process, publishes nothing.
+std::unique_ptr<Bus> InspectorBus(const std::string& run_dir) {
+  const std::string resolved = run_dir + "/scenario.resolved.yaml";
+  if (access(resolved.c_str(), R_OK) != 0) {
+    throw std::runtime_error("no run in '" + run_dir + "' (" + resolved + " not found); pass --run DIR");
+  }
+  const Scenario scenario = LoadScenario(resolved);
+  BusOptions options;
+  options.node_name = "iapsim-cli-" + std::to_string(getpid());
+  options.bind_endpoint = "ipc://@" + options.node_name;
+  for (const auto& [name, endpoint] : scenario.bus.endpoints) options.peer_endpoints.push_back(endpoint);
+  options.drop_policy = DropPolicy::kDropNewest;
+  return std::make_unique<Bus>(options);
+}
+
+double Seconds(int64_t ns) { return static_cast<double>(ns) * 1e-9; }
+
+}  // namespace
+
+int Run(const RunArgs& args) { return Launch(args, Overrides(args)); }
+
+int Replay(const ReplayArgs& args) {
+  auto overrides = Overrides(args.run);
+  overrides.push_back("processes.replayer.exec=iapsim_replayer");
+  overrides.push_back("processes.replayer.role=participant");
+  overrides.push_back("processes.replayer.params.bag=" + args.bag);
+  overrides.push_back("processes.replayer.params.topics=" + YamlFlowList(args.topics));
+  overrides.push_back("processes.replayer.params.map=" + YamlFlowList(args.map));
+  return Launch(args.run, overrides);
+}
+
+int Info(const std::string& bag_path) {
+  BagReader bag(bag_path);
+  const auto topics = bag.Topics();
+  uint64_t total = 0;
+  for (const auto& t : topics) total += t.count;
+  std::printf("bag:       %s\n", bag_path.c_str());
+  std::printf("duration:  %.3f s (%.9f to %.9f)\n", Seconds(bag.end_time_ns() - bag.start_time_ns()),
+              Seconds(bag.start_time_ns()), Seconds(bag.end_time_ns()));
+  std::printf("messages:  %llu on %zu topics\n\n", static_cast<unsigned long long>(total), topics.size());
+  size_t topic_width = 5, type_width = 4;
+  for (const auto& t : topics) {
+    topic_width = std::max(topic_width, t.topic.size());
+    type_width = std::max(type_width, t.datatype.size());
+  }
+  std::printf("%-*s  %-*s  %10s  %10s\n", static_cast<int>(topic_width), "topic", static_cast<int>(type_width),
+              "type", "count", "rate_hz");
+  for (const auto& t : topics) {
+    const double span_s = Seconds(t.last_time_ns - t.first_time_ns);
+    const double rate = t.count > 1 && span_s > 0 ? static_cast<double>(t.count - 1) / span_s : 0.0;
+    std::printf("%-*s  %-*s  %10llu  %10.2f\n", static_cast<int>(topic_width), t.topic.c_str(),
+                static_cast<int>(type_width), t.datatype.c_str(), static_cast<unsigned long long>(t.count), rate);
+  }
+  return 0;
+}
+
+int Export(const ExportArgs& args) {
+  BagReader bag(args.bag);
+  const BagTopicInfo* topic = nullptr;
+  const auto topics = bag.Topics();
+  for (const auto& t : topics) {
+    if (t.topic == args.topic) topic = &t;
+  }
+  if (!topic) throw std::runtime_error(args.bag + ": no topic '" + args.topic + "' (see iapsim info)");
+  const auto schema = SchemaSet::Parse(topic->datatype, topic->definition);
+
+  std::ofstream file;
+  if (!args.output.empty()) {
+    file.open(args.output);
+    if (!file) throw std::runtime_error("cannot write '" + args.output + "'");
+  }
+  std::ostream& out = args.output.empty() ? std::cout : file;
+  CsvWriter csv(out);
+  uint64_t written = 0;
+  bag.ForEach({args.topic}, [&](const BagMessage& m) {
+    if (args.format == "csv") {
+      csv.Write(m.record_time_ns, Flatten(*schema, m.bytes.data(), m.bytes.size()));
+    } else {
+      const auto pose = ExtractPose(*schema, m.bytes.data(), m.bytes.size(), m.record_time_ns, args.pose_field);
+      if (!pose) throw std::runtime_error("topic '" + args.topic + "' (" + topic->datatype + ") holds no pose");
+      out << FormatTum(*pose) << "\n";
+    }
+    ++written;
+    return true;
+  });
+  if (!args.output.empty()) {
+    std::fprintf(stderr, "wrote %llu rows of %s to %s\n", static_cast<unsigned long long>(written),
+                 args.topic.c_str(), args.output.c_str());
+  }
+  return 0;
+}
+
+int Topics(const LiveArgs& args) {
+  auto bus = InspectorBus(args.run_dir);
+  struct Seen {
+    std::string datatype;
+    std::string publisher;
+    uint64_t count = 0;
+  };
+  std::map<std::string, Seen> seen;
+  bus->SubscribeRaw("", [&](const uint8_t*, size_t, const MessageInfo& info) {
+    Seen& s = seen[info.topic];
+    s.datatype = info.datatype;
+    s.publisher = info.publisher;
+    ++s.count;
+  });
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(args.listen_s);
+  while (std::chrono::steady_clock::now() < end) bus->Spin(std::chrono::milliseconds(20));
+  if (seen.empty()) {
+    std::printf("no messages within %.1f s: is the run in %s still going?\n", args.listen_s, args.run_dir.c_str());
+    return 1;
+  }
+  std::printf("%-40s %-32s %-12s %10s\n", "topic", "type", "publisher", "rate_hz");
+  for (const auto& [topic, s] : seen) {
+    std::printf("%-40s %-32s %-12s %10.1f\n", topic.c_str(), s.datatype.c_str(), s.publisher.c_str(),
+                static_cast<double>(s.count) / args.listen_s);
+  }
+  return 0;
+}
+
+int Echo(const LiveArgs& args) {
+  auto bus = InspectorBus(args.run_dir);
+  long printed = 0;
+  bus->SubscribeRaw(args.topic, [&](const uint8_t* data, size_t size, const MessageInfo& info) {
+    if (info.topic != args.topic || (args.count >= 0 && printed >= args.count)) return;
+    const RegisteredType* type = FindType(info.datatype);
+    if (!type) {
+      std::printf("--- %s from %s: %zu bytes of unknown type %s\n", info.topic.c_str(), info.publisher.c_str(), size,
+                  info.datatype.c_str());
+    } else {
+      std::printf("---\n%s", FormatYaml(*type->schema, data, size).c_str());
+    }
+    std::fflush(stdout);
+    ++printed;
+  });
+  struct sigaction action {};
+  action.sa_handler = OnInterrupt;
+  sigaction(SIGINT, &action, nullptr);
+  while (!interrupted && (args.count < 0 || printed < args.count)) bus->Spin(std::chrono::milliseconds(50));
+  return 0;
+}
+
+}  // namespace iapsim::tools

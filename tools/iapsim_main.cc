@@ -1,0 +1,80 @@
+// iapsim: the one command-line program. Each subcommand lives in tools/commands.cc or tools/bench_bus.cc.
+
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "tools/commands.h"
+
+int main(int argc, char** argv) {
+  using namespace iapsim::tools;
+  CLI::App app("iapsim: a multi-process simulator for Integrated Aerial Platforms");
+  app.require_subcommand(1);
+
+  RunArgs run;
+  auto* run_cmd = app.add_subcommand("run", "run a scenario: start its process graph, supervise it, write a run directory");
+  run_cmd->add_option("scenario", run.scenario, "scenario YAML")->required()->check(CLI::ExistingFile);
+  run_cmd->add_option("--out", run.out_dir, "run directory (default runs/<name>-<UTC time>)");
+  run_cmd->add_option("--mode", run.mode, "lockstep, fast or realtime")
+      ->check(CLI::IsMember({"lockstep", "fast", "realtime"}));
+  run_cmd->add_option("--duration", run.duration_s, "sim seconds");
+  run_cmd->add_option("--seed", run.seed, "seed of every random stream");
+  run_cmd->add_option("--set", run.overrides, "override a scenario key: KEY=VALUE (repeatable)");
+
+  ReplayArgs replay;
+  auto* replay_cmd = app.add_subcommand("replay", "play recorded topics of a bag into a run of a scenario");
+  replay_cmd->add_option("bag", replay.bag, "bag file")->required()->check(CLI::ExistingFile);
+  replay_cmd->add_option("--scenario", replay.run.scenario, "scenario YAML")->required()->check(CLI::ExistingFile);
+  replay_cmd->add_option("--topics", replay.topics, "topics to play (default: all)");
+  replay_cmd->add_option("--map", replay.map, "rename a topic: FROM:=TO (repeatable)");
+  replay_cmd->add_option("--out", replay.run.out_dir, "run directory");
+  replay_cmd->add_option("--mode", replay.run.mode, "lockstep, fast or realtime")
+      ->check(CLI::IsMember({"lockstep", "fast", "realtime"}));
+  replay_cmd->add_option("--duration", replay.run.duration_s, "sim seconds");
+  replay_cmd->add_option("--seed", replay.run.seed, "seed of every random stream");
+  replay_cmd->add_option("--set", replay.run.overrides, "override a scenario key: KEY=VALUE (repeatable)");
+
+  std::string info_bag;
+  auto* info_cmd = app.add_subcommand("info", "list a bag's topics, types, counts and rates");
+  info_cmd->add_option("bag", info_bag, "bag file")->required()->check(CLI::ExistingFile);
+
+  ExportArgs exp;
+  auto* export_cmd = app.add_subcommand("export", "write one topic of a bag as CSV or as a TUM trajectory");
+  export_cmd->add_option("bag", exp.bag, "bag file")->required()->check(CLI::ExistingFile);
+  export_cmd->add_option("--topic", exp.topic, "topic to export")->required();
+  export_cmd->add_option("--format", exp.format, "csv or tum")->check(CLI::IsMember({"csv", "tum"}));
+  export_cmd->add_option("--pose-field", exp.pose_field,
+                         "tum: field holding the pose, e.g. bodies[0].pose_W (default: the first pose)");
+  export_cmd->add_option("-o,--output", exp.output, "output file (default: standard output)");
+
+  LiveArgs topics;
+  auto* topics_cmd = app.add_subcommand("topics", "list the topics of a running graph");
+  topics_cmd->add_option("--run", topics.run_dir, "run directory of the running graph (default runs/latest)");
+  topics_cmd->add_option("--listen", topics.listen_s, "seconds to listen");
+
+  LiveArgs echo;
+  auto* echo_cmd = app.add_subcommand("echo", "print the messages of a topic of a running graph as YAML");
+  echo_cmd->add_option("topic", echo.topic, "topic")->required();
+  echo_cmd->add_option("--run", echo.run_dir, "run directory of the running graph (default runs/latest)");
+  echo_cmd->add_option("-n,--count", echo.count, "stop after this many messages (default: until Ctrl-C)");
+
+  std::string bench_what = "all";
+  std::string bench_json;
+  auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
+  bench_cmd->add_option("what", bench_what, "bus or all")->check(CLI::IsMember({"bus", "all"}));
+  bench_cmd->add_option("--json", bench_json, "also write the figures to this JSON file");
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (*run_cmd) return Run(run);
+    if (*replay_cmd) return Replay(replay);
+    if (*info_cmd) return Info(info_bag);
+    if (*export_cmd) return Export(exp);
+    if (*topics_cmd) return Topics(topics);
+    if (*echo_cmd) return Echo(echo);
+    if (*bench_cmd) return BenchBus(bench_json);
+  } catch (const std::exception& e) {
+    std::cerr << "iapsim: " << e.what() << std::endl;
+    return 1;
+  }
+  return 0;
+}
