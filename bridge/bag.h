@@ -71,7 +71,8 @@ class BagReader {
   int64_t end_time_ns() const;
 
   /// Visits the messages of `topics` (all when empty) in record-time order; stop early by returning false.
-  void ForEach(const std::vector<std::string>& topics, const std::function<bool(const BagMessage&)>& visit) const;
+  void ForEach(const std::vector<std::string>& topics,
+               const std::function<bool(const BagMessage&)>& visit) const;
 
  private:
   struct Impl;

@@ -46,9 +46,9 @@ struct BusOptions {
 
 struct TopicCounters {
   uint64_t sent = 0;
-  uint64_t dropped = 0;   // not sent: a subscriber's queue stayed full (see DropPolicy)
+  uint64_t dropped = 0;  // not sent: a subscriber's queue stayed full (see DropPolicy)
   uint64_t received = 0;
-  uint64_t lost = 0;      // gaps in the publisher's sequence seen at this subscriber
+  uint64_t lost = 0;  // gaps in the publisher's sequence seen at this subscriber
 };
 
 struct BusStats {

@@ -45,11 +45,12 @@ TEST(Bus, DeliversEveryMessageAfterHandshakeInOrder) {
   Bus physics(Options("physics", {"control"}));
   Bus control(Options("control", {"physics"}));
   std::vector<uint64_t> steps;
-  control.Subscribe<iapsim_msgs::IapState>("/iap/state", [&](const iapsim_msgs::IapState& s, const MessageInfo& info) {
-    EXPECT_EQ(info.publisher, "physics");
-    EXPECT_EQ(info.sequence, s.step);
-    steps.push_back(s.step);
-  });
+  control.Subscribe<iapsim_msgs::IapState>("/iap/state",
+                                           [&](const iapsim_msgs::IapState& s, const MessageInfo& info) {
+                                             EXPECT_EQ(info.publisher, "physics");
+                                             EXPECT_EQ(info.sequence, s.step);
+                                             steps.push_back(s.step);
+                                           });
   Handshake(physics, control);
 
   // no slow-joiner loss: the very first message after the handshake arrives

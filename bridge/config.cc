@@ -32,17 +32,21 @@ std::string JoinKeys(const std::set<std::string>& keys) {
 YamlMap::YamlMap(const YAML::Node& node, std::string file, std::string key_path)
     : node_(node), file_(std::move(file)), key_path_(std::move(key_path)), resolved_(YAML::NodeType::Map) {
   if (node_ && !node_.IsNull() && !node_.IsMap()) {
-    throw ConfigError(Where(node_) + (key_path_.empty() ? "document" : key_path_) + ": expected a map of keys, got a " +
-                      KindOf(node_));
+    throw ConfigError(Where(node_) + (key_path_.empty() ? "document" : key_path_) +
+                      ": expected a map of keys, got a " + KindOf(node_));
   }
 }
 
 std::string YamlMap::KindOf(const YAML::Node& node) {
   switch (node.Type()) {
-    case YAML::NodeType::Map: return "map";
-    case YAML::NodeType::Sequence: return "list";
-    case YAML::NodeType::Scalar: return "value";
-    default: return "null value";
+    case YAML::NodeType::Map:
+      return "map";
+    case YAML::NodeType::Sequence:
+      return "list";
+    case YAML::NodeType::Scalar:
+      return "value";
+    default:
+      return "null value";
   }
 }
 
@@ -69,7 +73,8 @@ void YamlMap::Fail(const std::string& key, const std::string& what) const {
   throw ConfigError(location + PathOf(key) + ": " + what);
 }
 
-void YamlMap::OptionalChoice(const std::string& key, std::string* value, const std::vector<std::string>& choices) {
+void YamlMap::OptionalChoice(const std::string& key, std::string* value,
+                             const std::vector<std::string>& choices) {
   Optional(key, value);
   if (std::find(choices.begin(), choices.end(), *value) == choices.end()) {
     std::string list;
@@ -136,7 +141,8 @@ YAML::Node LoadYamlFile(const std::string& path) {
 void ApplyOverride(YAML::Node root, const std::string& assignment, const std::string& file) {
   const auto equals = assignment.find('=');
   if (equals == std::string::npos || equals == 0) {
-    throw ConfigError(file + ": --set '" + assignment + "': expected KEY=VALUE (for example clock.step_s=0.002)");
+    throw ConfigError(file + ": --set '" + assignment +
+                      "': expected KEY=VALUE (for example clock.step_s=0.002)");
   }
   const std::string path = assignment.substr(0, equals);
   YAML::Node value;

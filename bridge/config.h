@@ -99,7 +99,8 @@ class YamlMap {
   YAML::Node resolved_;
 };
 
-/// Loads a YAML file; a missing or malformed file is a ConfigError naming it (and the line of a syntax error).
+/// Loads a YAML file; a missing or malformed file is a ConfigError naming it (and the line of a syntax
+/// error).
 YAML::Node LoadYamlFile(const std::string& path);
 
 /// Applies "a.b.c=value" (value parsed as YAML) onto `root`; the key path must exist unless `allow_new`.

@@ -3,6 +3,7 @@
 #include <zmq.hpp>
 
 #include "bridge/bus.h"
+#include "bridge/internal/zmq_poll.h"
 
 namespace iapsim::bridge {
 namespace {
@@ -38,7 +39,8 @@ ControlClient::ControlClient(const std::string& endpoint, const std::string& pro
   try {
     impl_->socket.connect(endpoint);
   } catch (const zmq::error_t& e) {
-    throw BusError("process '" + process + "': cannot connect to the launcher at '" + endpoint + "': " + e.what());
+    throw BusError("process '" + process + "': cannot connect to the launcher at '" + endpoint +
+                   "': " + e.what());
   }
 }
 
@@ -50,8 +52,7 @@ void ControlClient::Send(const std::string& kind, const std::string& body) {
 }
 
 std::optional<ControlMessage> ControlClient::Receive(std::chrono::milliseconds timeout) {
-  zmq::pollitem_t item{impl_->socket.handle(), 0, ZMQ_POLLIN, 0};
-  if (zmq::poll(&item, 1, timeout) == 0) return std::nullopt;
+  if (!internal::PollOne(impl_->socket, ZMQ_POLLIN, timeout)) return std::nullopt;
   return ReadKindAndBody(impl_->socket, ControlMessage{});
 }
 
@@ -78,8 +79,7 @@ void ControlServer::Send(const std::string& process, const std::string& kind) {
 }
 
 std::optional<ControlMessage> ControlServer::Receive(std::chrono::milliseconds timeout) {
-  zmq::pollitem_t item{impl_->socket.handle(), 0, ZMQ_POLLIN, 0};
-  if (zmq::poll(&item, 1, timeout) == 0) return std::nullopt;
+  if (!internal::PollOne(impl_->socket, ZMQ_POLLIN, timeout)) return std::nullopt;
   zmq::message_t identity;
   if (!impl_->socket.recv(identity)) return std::nullopt;
   ControlMessage message;

@@ -161,7 +161,10 @@ class Supervisor {
  public:
   Supervisor(const Scenario& scenario, std::vector<Child> children, ControlServer& server,
              std::shared_ptr<spdlog::logger> log, bool progress)
-      : scenario_(scenario), children_(std::move(children)), server_(server), log_(std::move(log)),
+      : scenario_(scenario),
+        children_(std::move(children)),
+        server_(server),
+        log_(std::move(log)),
         progress_(progress && isatty(STDERR_FILENO)) {}
 
   // Returns the failure message, empty when the run completed.
@@ -373,7 +376,8 @@ LaunchResult Launch(const LaunchOptions& options) {
   try {
     scenario = LoadScenario(options.scenario_path, options.overrides);
     for (const auto& p : scenario.processes) {
-      const std::string path = p.exec.find('/') == std::string::npos ? options.bin_dir + "/" + p.exec : p.exec;
+      const std::string path =
+          p.exec.find('/') == std::string::npos ? options.bin_dir + "/" + p.exec : p.exec;
       if (access(path.c_str(), X_OK) != 0) {
         throw ConfigError(options.scenario_path + ":" + std::to_string(p.line) + ": processes." + p.name +
                           ".exec: no executable '" + path + "'");
@@ -403,7 +407,8 @@ LaunchResult Launch(const LaunchOptions& options) {
 
   // the run directory, with the configuration exactly as the processes will use it
   result.run_dir = MakeRunDir(options, scenario);
-  const std::string run_id = std::to_string(getpid()) + "-" + std::to_string(Clock::now().time_since_epoch().count() % 1000000007);
+  const std::string run_id =
+      std::to_string(getpid()) + "-" + std::to_string(Clock::now().time_since_epoch().count() % 1000000007);
   AssignEndpoints(&scenario, run_id);
   for (const auto& [name, params] : resolved_params) {
     if (scenario.resolved["processes"][name]) scenario.resolved["processes"][name]["params"] = params;
@@ -420,6 +425,7 @@ LaunchResult Launch(const LaunchOptions& options) {
   auto log = std::make_shared<spdlog::logger>("iapsim", spdlog::sinks_init_list{stderr_sink, file_sink});
   log->set_pattern("[%H:%M:%S.%e] [launcher] [%l] %v");
   stderr_sink->set_level(spdlog::level::warn);  // the terminal gets problems; log.txt gets everything
+  log->flush_on(spdlog::level::info);           // log.txt is complete at every moment, crash or not
   log->info("scenario {} ({} mode, {} s, seed {}), run directory {}", options.scenario_path,
             ToString(scenario.mode), scenario.duration_s, scenario.seed, result.run_dir);
 
@@ -438,9 +444,9 @@ LaunchResult Launch(const LaunchOptions& options) {
     child.log_path = result.run_dir + "/logs/" + p.name + ".log";
     child.hang_timeout_s = p.hang_timeout_s;
     child.startup_timeout_s = p.startup_timeout_s;
-    child.pid = Spawn({executables[p.name], "--scenario", resolved_path, "--node", p.name, "--run-dir",
-                       result.run_dir},
-                      child.log_path);
+    child.pid = Spawn(
+        {executables[p.name], "--scenario", resolved_path, "--node", p.name, "--run-dir", result.run_dir},
+        child.log_path);
     log->info("started {} (pid {}): {}", p.name, child.pid, executables[p.name]);
     children.push_back(child);
   }

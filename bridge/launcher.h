@@ -22,9 +22,9 @@ struct LaunchOptions {
 };
 
 struct LaunchResult {
-  int exit_code = 0;     // 0 ok, 1 a process failed, 2 bad configuration, 130 interrupted
-  std::string run_dir;   // empty when nothing was started
-  std::string message;   // why it failed
+  int exit_code = 0;    // 0 ok, 1 a process failed, 2 bad configuration, 130 interrupted
+  std::string run_dir;  // empty when nothing was started
+  std::string message;  // why it failed
 };
 
 LaunchResult Launch(const LaunchOptions& options);

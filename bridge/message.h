@@ -23,7 +23,8 @@ struct TypeInfo {
 template <class M>
 const TypeInfo& TypeInfoOf() {
   // immutable per-type constant, built once
-  static const TypeInfo info{ros::message_traits::DataType<M>::value(), ros::message_traits::MD5Sum<M>::value(),
+  static const TypeInfo info{ros::message_traits::DataType<M>::value(),
+                             ros::message_traits::MD5Sum<M>::value(),
                              ros::message_traits::Definition<M>::value()};
   return info;
 }

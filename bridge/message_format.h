@@ -14,7 +14,8 @@ namespace iapsim::bridge {
 
 /// rostopic-echo-like YAML of one message. Byte arrays longer than `max_bytes_shown` are summarized as
 /// "<N bytes>"; times print as seconds with 9 decimals. Throws std::invalid_argument on malformed bytes.
-std::string FormatYaml(const SchemaSet& schema, const uint8_t* data, size_t size, size_t max_bytes_shown = 16);
+std::string FormatYaml(const SchemaSet& schema, const uint8_t* data, size_t size,
+                       size_t max_bytes_shown = 16);
 
 /// Flattened leaves in serialization order: column names like "bodies[0].pose_W.position.x" and their text.
 /// Byte arrays become one column holding their length.

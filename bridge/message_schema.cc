@@ -15,11 +15,11 @@ struct BuiltinType {
 
 // ROS1 builtin types (genmsg): byte is a deprecated alias of int8, char of uint8.
 constexpr BuiltinType kBuiltins[] = {
-    {"bool", FieldKind::kBool},       {"int8", FieldKind::kInt8},       {"byte", FieldKind::kInt8},
-    {"uint8", FieldKind::kUint8},     {"char", FieldKind::kUint8},      {"int16", FieldKind::kInt16},
-    {"uint16", FieldKind::kUint16},   {"int32", FieldKind::kInt32},     {"uint32", FieldKind::kUint32},
-    {"int64", FieldKind::kInt64},     {"uint64", FieldKind::kUint64},   {"float32", FieldKind::kFloat32},
-    {"float64", FieldKind::kFloat64}, {"string", FieldKind::kString},   {"time", FieldKind::kTime},
+    {"bool", FieldKind::kBool},         {"int8", FieldKind::kInt8},     {"byte", FieldKind::kInt8},
+    {"uint8", FieldKind::kUint8},       {"char", FieldKind::kUint8},    {"int16", FieldKind::kInt16},
+    {"uint16", FieldKind::kUint16},     {"int32", FieldKind::kInt32},   {"uint32", FieldKind::kUint32},
+    {"int64", FieldKind::kInt64},       {"uint64", FieldKind::kUint64}, {"float32", FieldKind::kFloat32},
+    {"float64", FieldKind::kFloat64},   {"string", FieldKind::kString}, {"time", FieldKind::kTime},
     {"duration", FieldKind::kDuration},
 };
 
@@ -79,22 +79,34 @@ T Load(const uint8_t* p) {
 
 LeafValue ReadLeaf(FieldKind kind, const uint8_t* p) {
   switch (kind) {
-    case FieldKind::kBool: return LeafValue(p[0] != 0);
-    case FieldKind::kInt8: return LeafValue(int64_t{Load<int8_t>(p)});
-    case FieldKind::kUint8: return LeafValue(uint64_t{Load<uint8_t>(p)});
-    case FieldKind::kInt16: return LeafValue(int64_t{Load<int16_t>(p)});
-    case FieldKind::kUint16: return LeafValue(uint64_t{Load<uint16_t>(p)});
-    case FieldKind::kInt32: return LeafValue(int64_t{Load<int32_t>(p)});
-    case FieldKind::kUint32: return LeafValue(uint64_t{Load<uint32_t>(p)});
-    case FieldKind::kInt64: return LeafValue(Load<int64_t>(p));
-    case FieldKind::kUint64: return LeafValue(Load<uint64_t>(p));
-    case FieldKind::kFloat32: return LeafValue(double{Load<float>(p)});
-    case FieldKind::kFloat64: return LeafValue(Load<double>(p));
+    case FieldKind::kBool:
+      return LeafValue(p[0] != 0);
+    case FieldKind::kInt8:
+      return LeafValue(int64_t{Load<int8_t>(p)});
+    case FieldKind::kUint8:
+      return LeafValue(uint64_t{Load<uint8_t>(p)});
+    case FieldKind::kInt16:
+      return LeafValue(int64_t{Load<int16_t>(p)});
+    case FieldKind::kUint16:
+      return LeafValue(uint64_t{Load<uint16_t>(p)});
+    case FieldKind::kInt32:
+      return LeafValue(int64_t{Load<int32_t>(p)});
+    case FieldKind::kUint32:
+      return LeafValue(uint64_t{Load<uint32_t>(p)});
+    case FieldKind::kInt64:
+      return LeafValue(Load<int64_t>(p));
+    case FieldKind::kUint64:
+      return LeafValue(Load<uint64_t>(p));
+    case FieldKind::kFloat32:
+      return LeafValue(double{Load<float>(p)});
+    case FieldKind::kFloat64:
+      return LeafValue(Load<double>(p));
     case FieldKind::kTime:
       return LeafValue(TimeNs{int64_t{Load<uint32_t>(p)} * 1000000000 + Load<uint32_t>(p + 4)});
     case FieldKind::kDuration:
       return LeafValue(TimeNs{int64_t{Load<int32_t>(p)} * 1000000000 + Load<int32_t>(p + 4)});
-    default: return LeafValue(false);
+    default:
+      return LeafValue(false);
   }
 }
 
@@ -122,7 +134,8 @@ class Walker {
       count = n;
     }
     const size_t element_size = PrimitiveSize(field.kind);
-    // every element takes at least one byte except empty messages, so a count beyond the bytes left is corrupt
+    // every element takes at least one byte except empty messages, so a count beyond the bytes left is
+    // corrupt
     if (element_size > 0 && count > cursor_.remaining() / element_size) {
       return Fail(path, "array of " + std::to_string(count) + " elements does not fit in " +
                             std::to_string(cursor_.remaining()) + " remaining bytes");
@@ -151,7 +164,8 @@ class Walker {
       if (!cursor_.ReadU32(&n)) return Fail(path, "truncated string length");
       const uint8_t* p;
       if (!cursor_.Take(n, &p)) return Fail(path, "string of " + std::to_string(n) + " bytes is truncated");
-      if (visitor_) visitor_->Leaf(path, name, LeafValue(std::string(reinterpret_cast<const char*>(p), n)), depth);
+      if (visitor_)
+        visitor_->Leaf(path, name, LeafValue(std::string(reinterpret_cast<const char*>(p), n)), depth);
       return true;
     }
     const uint8_t* p;
@@ -180,7 +194,8 @@ class Walker {
   }
 
   bool Fail(const std::string& path, const std::string& what) {
-    if (error_.empty()) error_ = "at byte " + std::to_string(cursor_.pos()) + ", field '" + path + "': " + what;
+    if (error_.empty())
+      error_ = "at byte " + std::to_string(cursor_.pos()) + ", field '" + path + "': " + what;
     return false;
   }
 
@@ -195,24 +210,30 @@ size_t PrimitiveSize(FieldKind kind) {
   switch (kind) {
     case FieldKind::kBool:
     case FieldKind::kInt8:
-    case FieldKind::kUint8: return 1;
+    case FieldKind::kUint8:
+      return 1;
     case FieldKind::kInt16:
-    case FieldKind::kUint16: return 2;
+    case FieldKind::kUint16:
+      return 2;
     case FieldKind::kInt32:
     case FieldKind::kUint32:
-    case FieldKind::kFloat32: return 4;
+    case FieldKind::kFloat32:
+      return 4;
     case FieldKind::kInt64:
     case FieldKind::kUint64:
     case FieldKind::kFloat64:
     case FieldKind::kTime:
-    case FieldKind::kDuration: return 8;
+    case FieldKind::kDuration:
+      return 8;
     case FieldKind::kString:
-    case FieldKind::kMessage: return 0;
+    case FieldKind::kMessage:
+      return 0;
   }
   return 0;
 }
 
-std::shared_ptr<const SchemaSet> SchemaSet::Parse(const std::string& datatype, const std::string& definition) {
+std::shared_ptr<const SchemaSet> SchemaSet::Parse(const std::string& datatype,
+                                                  const std::string& definition) {
   auto set = std::make_shared<SchemaSet>();
   std::map<std::string, MessageSchema*> by_type;
   auto fail = [&](int line, const std::string& what) {
@@ -276,8 +297,8 @@ std::shared_ptr<const SchemaSet> SchemaSet::Parse(const std::string& datatype, c
       if (field.kind != FieldKind::kMessage) continue;
       const auto it = by_type.find(field.message_type);
       if (it == by_type.end()) {
-        throw std::invalid_argument("definition of " + datatype + ": type " + field.message_type + " of field " +
-                                    schema->datatype + "." + field.name + " is not defined");
+        throw std::invalid_argument("definition of " + datatype + ": type " + field.message_type +
+                                    " of field " + schema->datatype + "." + field.name + " is not defined");
       }
       field.nested = it->second;
     }

@@ -17,8 +17,21 @@
 namespace iapsim::bridge {
 
 enum class FieldKind {
-  kBool, kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kInt64, kUint64,
-  kFloat32, kFloat64, kString, kTime, kDuration, kMessage
+  kBool,
+  kInt8,
+  kUint8,
+  kInt16,
+  kUint16,
+  kInt32,
+  kUint32,
+  kInt64,
+  kUint64,
+  kFloat32,
+  kFloat64,
+  kString,
+  kTime,
+  kDuration,
+  kMessage
 };
 
 struct MessageSchema;
@@ -26,9 +39,9 @@ struct MessageSchema;
 struct FieldSchema {
   std::string name;
   FieldKind kind = FieldKind::kBool;
-  std::string message_type;              // resolved "pkg/Type" when kind == kMessage
-  int array_size = -1;                   // -1: scalar, 0: variable-length array, >0: fixed-length array
-  const MessageSchema* nested = nullptr; // when kind == kMessage
+  std::string message_type;               // resolved "pkg/Type" when kind == kMessage
+  int array_size = -1;                    // -1: scalar, 0: variable-length array, >0: fixed-length array
+  const MessageSchema* nested = nullptr;  // when kind == kMessage
 };
 
 struct MessageSchema {
@@ -49,7 +62,9 @@ class FieldVisitor {
   virtual void BeginMessage(const std::string& path, const MessageSchema& schema, int depth) {
     (void)path, (void)schema, (void)depth;
   }
-  virtual void BeginArray(const std::string& path, size_t count, int depth) { (void)path, (void)count, (void)depth; }
+  virtual void BeginArray(const std::string& path, size_t count, int depth) {
+    (void)path, (void)count, (void)depth;
+  }
   virtual void Leaf(const std::string& path, const std::string& name, const LeafValue& value, int depth) = 0;
   /// Arrays of bytes (uint8/int8) are reported whole, never element by element.
   virtual void Bytes(const std::string& path, const std::string& name, const uint8_t* data, size_t size,

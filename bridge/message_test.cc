@@ -1,3 +1,5 @@
+#include "bridge/message.h"
+
 #include <geometry_msgs/PoseStamped.h>
 #include <gtest/gtest.h>
 #include <iapsim_msgs/IapCommand.h>
@@ -7,7 +9,6 @@
 
 #include <random>
 
-#include "bridge/message.h"
 #include "bridge/message_registry.h"
 
 namespace iapsim::bridge {

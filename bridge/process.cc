@@ -62,15 +62,17 @@ class Runtime {
   // Returns the exit code. Exceptions from the process or the protocol propagate to ProcessMain.
   int Run() {
     process_.Setup(bus_);
-    bus_.Subscribe<iapsim_msgs::StepAck>(kAckTopic, [this](const iapsim_msgs::StepAck& ack, const MessageInfo&) {
-      OnAck(ack);
-    });
+    bus_.Subscribe<iapsim_msgs::StepAck>(
+        kAckTopic, [this](const iapsim_msgs::StepAck& ack, const MessageInfo&) { OnAck(ack); });
     if (self_.role != ProcessRole::kClock) {
-      bus_.Subscribe<iapsim_msgs::Tick>(kTickTopic, [this](const iapsim_msgs::Tick& tick, const MessageInfo&) {
-        OnTick(tick);
-      });
+      bus_.Subscribe<iapsim_msgs::Tick>(
+          kTickTopic, [this](const iapsim_msgs::Tick& tick, const MessageInfo&) { OnTick(tick); });
     }
+    spdlog::info("{} ({}, {}) on {}", self_.name, ToString(self_.role),
+                 self_.rate_hz > 0 ? std::to_string(self_.rate_hz) + " Hz" : std::string("every step"),
+                 scenario_.bus.endpoints.at(self_.name));
     if (!Handshake()) return Finish();
+    spdlog::info("started in {} mode", ToString(scenario_.mode));
     if (self_.role == ProcessRole::kClock) {
       RunClock();
     } else {
@@ -90,7 +92,8 @@ class Runtime {
     options.send_hwm = scenario.bus.send_hwm;
     options.receive_hwm = scenario.bus.receive_hwm;
     // lockstep never lets queues fill; elsewhere a slow subscriber must not stall the clock
-    options.drop_policy = scenario.mode == ClockMode::kLockstep ? DropPolicy::kBlock : DropPolicy::kDropNewest;
+    options.drop_policy =
+        scenario.mode == ClockMode::kLockstep ? DropPolicy::kBlock : DropPolicy::kDropNewest;
     return options;
   }
 
@@ -155,17 +158,19 @@ class Runtime {
       const StepInfo info{k, static_cast<int64_t>(k) * step_ns, k == last};
       sim_ns_ = info.stamp_ns;
       process_.Step(info);
+      // the tick goes last: it closes step k for every receiver (recorder included)
+      clock.clock = ToRosTime(info.stamp_ns);
+      bus_.Publish("/clock", clock);
       tick.step = k;
       tick.stamp_ns = info.stamp_ns;
       tick.final = info.final;
       bus_.Publish(kTickTopic, tick);
-      clock.clock = ToRosTime(info.stamp_ns);
-      bus_.Publish("/clock", clock);
 
       if (scenario_.mode == ClockMode::kRealtime) {
-        const auto target = wall_start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
-                                             static_cast<double>(info.stamp_ns + step_ns) * 1e-9 /
-                                             scenario_.clock.realtime_factor));
+        const auto target =
+            wall_start +
+            std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                static_cast<double>(info.stamp_ns + step_ns) * 1e-9 / scenario_.clock.realtime_factor));
         while (Clock::now() < target) {
           bus_.Spin(std::min(std::chrono::duration_cast<std::chrono::microseconds>(target - Clock::now()),
                              std::chrono::microseconds(1000)));
@@ -181,9 +186,9 @@ class Runtime {
         if (StopRequested()) return;
         if (Clock::now() > deadline) {
           throw std::runtime_error("lockstep: process '" + schedule_.members()[missing].name +
-                                   "' did not acknowledge step " + std::to_string(k) + " (t = " +
-                                   std::to_string(static_cast<double>(info.stamp_ns) * 1e-9) + " s) within " +
-                                   std::to_string(scenario_.clock.ack_timeout_s) + " s");
+                                   "' did not acknowledge step " + std::to_string(k) +
+                                   " (t = " + std::to_string(static_cast<double>(info.stamp_ns) * 1e-9) +
+                                   " s) within " + std::to_string(scenario_.clock.ack_timeout_s) + " s");
         }
       }
     }
@@ -260,13 +265,17 @@ class Runtime {
   int Finish() {
     nlohmann::json process_report = nlohmann::json::object();
     process_.Finish(&process_report);
-    nlohmann::json report = {{"bus", BusReport(bus_.stats())}, {"process", process_report},
-                             {"completed", finished_}, {"sim_time_s", static_cast<double>(sim_ns_) * 1e-9}};
+    nlohmann::json report = {{"bus", BusReport(bus_.stats())},
+                             {"process", process_report},
+                             {"completed", finished_},
+                             {"sim_time_s", static_cast<double>(sim_ns_) * 1e-9}};
     if (!late_acks_.empty()) {
       nlohmann::json late = nlohmann::json::object();
       for (size_t m = 0; m < late_acks_.size(); ++m) late[schedule_.members()[m].name] = late_acks_[m];
       report["late_acks"] = late;
     }
+    spdlog::info("{} at t = {:.3f} s", finished_ ? "finished" : "stopped",
+                 static_cast<double>(sim_ns_) * 1e-9);
     control_.Send("bye", report.dump());
     return 0;
   }
@@ -302,7 +311,8 @@ struct Arguments {
 int ProcessMain(int argc, char** argv, const std::string& description, const ProcessFactory& factory) {
   Arguments args;
   CLI::App app(description);
-  app.add_option("--scenario", args.scenario, "scenario YAML (the run's scenario.resolved.yaml when launched)")
+  app.add_option("--scenario", args.scenario,
+                 "scenario YAML (the run's scenario.resolved.yaml when launched)")
       ->required();
   app.add_option("--node", args.node, "this process's name in the scenario")->required();
   app.add_option("--run-dir", args.run_dir, "run directory for outputs");

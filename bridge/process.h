@@ -5,15 +5,15 @@
 // Lockstep protocol, per clock step k:
 //   clock owner: Step(k) publishes state k, then the runtime publishes tick k (/iapsim/tick and /clock)
 //   participant: on tick k, if due: Step(k) publishes its outputs, then the runtime publishes ack k
-//   clock owner: steps to k+1 once every awaited participant acked k (cmd k arrived before ack k: same socket)
+//   clock owner: steps to k+1 once every awaited participant acked k (cmd k arrived before ack k: same
+//   socket)
 // A process that StepsAfterPeers (the recorder) acts on k only when every other due process acked k, so it
 // has seen every message of step k.
-
-#include <nlohmann/json.hpp>
 
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "bridge/bus.h"
@@ -23,9 +23,9 @@
 namespace iapsim::bridge {
 
 struct StepInfo {
-  uint64_t step = 0;      // k
-  int64_t stamp_ns = 0;   // t_k
-  bool final = false;     // last step of the run
+  uint64_t step = 0;     // k
+  int64_t stamp_ns = 0;  // t_k
+  bool final = false;    // last step of the run
 };
 
 /// What a process gets to know about its run.
@@ -51,7 +51,8 @@ class Process {
 
 /// Builds the process from its params (reading every key it knows; unknown keys are rejected after).
 /// Must not touch the bus: it also runs for `--check`.
-using ProcessFactory = std::function<std::unique_ptr<Process>(const ProcessContext& context, YamlMap& params)>;
+using ProcessFactory =
+    std::function<std::unique_ptr<Process>(const ProcessContext& context, YamlMap& params)>;
 
 /// The whole main() of a process executable:
 ///   EXEC --scenario FILE --node NAME [--run-dir DIR] [--set KEY=VALUE]... [--check]

@@ -78,8 +78,9 @@ class Recorder : public Process {
   void Enqueue(Queue& queue, const uint8_t* data, size_t size, const MessageInfo& info) {
     const RegisteredType* type = FindType(info.datatype);
     if (!type || type->info.md5 != info.md5) {
-      throw BusError("recorder: topic '" + info.topic + "' from '" + info.publisher + "' has type " + info.datatype +
-                     " (md5 " + info.md5 + ") that is not in iapsim's message registry (bridge/message_registry.cc)");
+      throw BusError("recorder: topic '" + info.topic + "' from '" + info.publisher + "' has type " +
+                     info.datatype + " (md5 " + info.md5 +
+                     ") that is not in iapsim's message registry (bridge/message_registry.cc)");
     }
     queue.messages.push_back(Pending{info.topic, &type->info, std::vector<uint8_t>(data, data + size)});
   }

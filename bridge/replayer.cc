@@ -1,5 +1,6 @@
 #include "bridge/replayer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -48,19 +49,22 @@ class Replayer : public Process {
         for (const auto& info : bag.Topics()) found = found || info.topic == topic;
         if (!found) params.Fail("topics", "topic '" + topic + "' is not in " + bag_path);
       }
-      int64_t first_ns = -1;
       bag.ForEach(topics, [&](const BagMessage& m) {
         const RegisteredType* type = FindType(m.type.datatype);
         if (!type || type->info.md5 != m.type.md5) {
           params.Fail("bag", bag_path + ": topic '" + m.topic + "' has type " + m.type.datatype +
                                  " unknown to iapsim's message registry");
         }
-        if (first_ns < 0) first_ns = m.record_time_ns;
         const auto renamed = rename.find(m.topic);
-        const int64_t due = m.record_time_ns - first_ns + std::llround(offset_s * 1e9);
-        queue_.push_back(Scheduled{due, renamed == rename.end() ? m.topic : renamed->second, type, m.bytes});
+        queue_.push_back(Scheduled{MessageTimeNs(*type, m),
+                                   renamed == rename.end() ? m.topic : renamed->second, type, m.bytes});
         return true;
       });
+      // the earliest message of the selection plays at time_offset_s; order by message time
+      std::stable_sort(queue_.begin(), queue_.end(),
+                       [](const Scheduled& a, const Scheduled& b) { return a.due_ns < b.due_ns; });
+      const int64_t origin_ns = queue_.empty() ? 0 : queue_.front().due_ns;
+      for (auto& m : queue_) m.due_ns += std::llround(offset_s * 1e9) - origin_ns;
     } catch (const BagError& e) {
       params.Fail("bag", e.what());
     }
@@ -91,6 +95,17 @@ class Replayer : public Process {
   }
 
  private:
+  // the time a message refers to: its header.stamp when it has one (what the data means), else when it was
+  // recorded (a bag cannot store time 0, so record times of t = 0 read 1 ns)
+  static int64_t MessageTimeNs(const RegisteredType& type, const BagMessage& m) {
+    const int offset = type.schema->HeaderStampOffset();
+    if (offset < 0 || m.bytes.size() < static_cast<size_t>(offset) + 8) return m.record_time_ns;
+    uint32_t sec, nsec;
+    std::memcpy(&sec, m.bytes.data() + offset, 4);
+    std::memcpy(&nsec, m.bytes.data() + offset + 4, 4);
+    return int64_t{sec} * 1000000000 + nsec;
+  }
+
   static void ReadStringList(YamlMap& params, const std::string& key, std::vector<std::string>* out) {
     const YAML::Node node = params.Raw(key);
     if (!node) return;

@@ -44,18 +44,24 @@ uint64_t StableHash(const std::string& text, uint64_t seed) {
 
 const char* ToString(ClockMode mode) {
   switch (mode) {
-    case ClockMode::kLockstep: return "lockstep";
-    case ClockMode::kFast: return "fast";
-    case ClockMode::kRealtime: return "realtime";
+    case ClockMode::kLockstep:
+      return "lockstep";
+    case ClockMode::kFast:
+      return "fast";
+    case ClockMode::kRealtime:
+      return "realtime";
   }
   return "?";
 }
 
 const char* ToString(ProcessRole role) {
   switch (role) {
-    case ProcessRole::kClock: return "clock";
-    case ProcessRole::kParticipant: return "participant";
-    case ProcessRole::kObserver: return "observer";
+    case ProcessRole::kClock:
+      return "clock";
+    case ProcessRole::kParticipant:
+      return "participant";
+    case ProcessRole::kObserver:
+      return "observer";
   }
   return "?";
 }
@@ -97,8 +103,8 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
   clock.Finish();
   const double steps = s.duration_s / s.clock.step_s;
   if (std::fabs(steps - std::round(steps)) > 1e-6 * std::max(1.0, steps)) {
-    top.Fail("duration_s", "must be a whole number of clock steps (clock.step_s = " +
-                               std::to_string(s.clock.step_s) + ")");
+    top.Fail("duration_s",
+             "must be a whole number of clock steps (clock.step_s = " + std::to_string(s.clock.step_s) + ")");
   }
 
   YamlMap bus = top.Map("bus");
@@ -123,7 +129,8 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
   }
   YamlMap process_maps = top.Map("processes");
   for (const std::string& name : process_maps.Keys()) {
-    if (name.empty() || name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") != std::string::npos) {
+    if (name.empty() ||
+        name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") != std::string::npos) {
       process_maps.Fail(name, "process names use lowercase letters, digits and '_'");
     }
     if (name == kRecorderName && s.recording.enabled) {
@@ -185,9 +192,10 @@ void AssignEndpoints(Scenario* scenario, const std::string& run_id) {
   int index = 0;
   for (const auto& p : scenario->processes) {
     // abstract unix sockets: no files left behind, no path-length limit from a deep run directory
-    const std::string endpoint = scenario->bus.transport == "tcp"
-                                     ? "tcp://127.0.0.1:" + std::to_string(scenario->bus.tcp_base_port + index)
-                                     : "ipc://@iapsim-" + run_id + "-" + p.name;
+    const std::string endpoint =
+        scenario->bus.transport == "tcp"
+            ? "tcp://127.0.0.1:" + std::to_string(scenario->bus.tcp_base_port + index)
+            : "ipc://@iapsim-" + run_id + "-" + p.name;
     scenario->bus.endpoints[p.name] = endpoint;
     endpoints[p.name] = endpoint;
     ++index;
@@ -215,9 +223,12 @@ int StepSchedule::IndexOf(const std::string& name) const {
 
 bool StepSchedule::Awaited(int member, ClockMode mode) const {
   switch (mode) {
-    case ClockMode::kLockstep: return true;
-    case ClockMode::kFast: return members_[member].role == ProcessRole::kParticipant;
-    case ClockMode::kRealtime: return false;
+    case ClockMode::kLockstep:
+      return true;
+    case ClockMode::kFast:
+      return members_[member].role == ProcessRole::kParticipant;
+    case ClockMode::kRealtime:
+      return false;
   }
   return true;
 }

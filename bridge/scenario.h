@@ -25,14 +25,14 @@ const char* ToString(ClockMode mode);
 const char* ToString(ProcessRole role);
 
 struct ClockConfig {
-  double step_s = 0.001;           // physics publish step: t_k = k * step
-  double ack_timeout_s = 2.0;      // lockstep/fast: a participant silent this long stops the run
-  double realtime_factor = 1.0;    // realtime: sim seconds per wall second
+  double step_s = 0.001;         // physics publish step: t_k = k * step
+  double ack_timeout_s = 2.0;    // lockstep/fast: a participant silent this long stops the run
+  double realtime_factor = 1.0;  // realtime: sim seconds per wall second
 };
 
 struct BusConfig {
-  std::string transport = "ipc";   // ipc (abstract unix sockets) or tcp (loopback)
-  int tcp_base_port = 17500;       // tcp: process i binds tcp_base_port + i
+  std::string transport = "ipc";  // ipc (abstract unix sockets) or tcp (loopback)
+  int tcp_base_port = 17500;      // tcp: process i binds tcp_base_port + i
   int send_hwm = 10000;
   int receive_hwm = 10000;
   // written by the launcher into scenario.resolved.yaml, so a process restarts from that file alone
@@ -42,19 +42,19 @@ struct BusConfig {
 
 struct RecordingConfig {
   bool enabled = true;
-  std::vector<std::string> include;            // topic prefixes; empty: every topic
+  std::vector<std::string> include;              // topic prefixes; empty: every topic
   std::vector<std::string> exclude{"/iapsim/"};  // protocol topics are not recorded by default
 };
 
 struct ProcessConfig {
   std::string name;
-  std::string exec;                // executable in the build's bin/ folder, or an absolute path
+  std::string exec;  // executable in the build's bin/ folder, or an absolute path
   ProcessRole role = ProcessRole::kParticipant;
-  double rate_hz = 0.0;            // 0: every clock step
-  double hang_timeout_s = 0.5;     // no heartbeat this long: the process is hung
+  double rate_hz = 0.0;         // 0: every clock step
+  double hang_timeout_s = 0.5;  // no heartbeat this long: the process is hung
   double startup_timeout_s = 30.0;
-  YAML::Node params;               // validated by the process itself (`EXEC --check`)
-  int line = 0;                    // line of the process's entry in the scenario file, for messages
+  YAML::Node params;  // validated by the process itself (`EXEC --check`)
+  int line = 0;       // line of the process's entry in the scenario file, for messages
 };
 
 struct Scenario {
@@ -72,7 +72,7 @@ struct Scenario {
   YAML::Node resolved;                   // every value as used, defaults included
 
   int64_t step_ns() const;
-  uint64_t last_step() const;            // K: steps run are k = 0..K, t_K = duration
+  uint64_t last_step() const;  // K: steps run are k = 0..K, t_K = duration
   const ProcessConfig* Find(const std::string& process) const;
   /// Seed for one process's random streams, derived from the scenario seed and the process name.
   uint64_t SeedFor(const std::string& process) const;

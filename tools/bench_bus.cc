@@ -8,6 +8,7 @@
 #include <iapsim_msgs/IapState.h>
 #include <iapsim_msgs/StepAck.h>
 #include <iapsim_msgs/Tick.h>
+#include <poll.h>
 #include <sensor_msgs/CompressedImage.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -28,7 +29,9 @@ using namespace iapsim::bridge;
 using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 
-int64_t NowNs() { return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count(); }
+int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
+}
 
 ros::Time ToRosTime(int64_t ns) {
   ros::Time t;
@@ -91,11 +94,11 @@ double Percentile(std::vector<double> v, double p) {
       bus.Publish("/pong", ack);
     };
     if (kind == "image") {
-      bus.Subscribe<sensor_msgs::CompressedImage>("/ping", [&](const sensor_msgs::CompressedImage& m,
-                                                               const MessageInfo& info) {
-        if (m.format == "end") done = true;
-        answer(info.sequence, static_cast<int64_t>(m.header.stamp.toNSec()));
-      });
+      bus.Subscribe<sensor_msgs::CompressedImage>(
+          "/ping", [&](const sensor_msgs::CompressedImage& m, const MessageInfo& info) {
+            if (m.format == "end") done = true;
+            answer(info.sequence, static_cast<int64_t>(m.header.stamp.toNSec()));
+          });
     } else if (kind == "state") {
       bus.Subscribe<iapsim_msgs::IapState>("/ping", [&](const iapsim_msgs::IapState& m, const MessageInfo&) {
         if (m.header.frame_id == "end") done = true;
@@ -154,6 +157,14 @@ PingPongResult PingPong(const std::string& transport, const std::string& kind, i
       have_ack = true;
     });
     HandshakeWith(bus, "child");
+    // keep greeting until the child is through its own handshake too
+    pollfd child_ready{fds[0], POLLIN, 0};
+    const auto deadline = Clock::now() + std::chrono::seconds(10);
+    while (poll(&child_ready, 1, 0) == 0) {
+      if (Clock::now() > deadline) throw std::runtime_error("bench: the child process did not get ready");
+      bus.PublishHello();
+      bus.Spin(milliseconds(2));
+    }
     char ready;
     if (read(fds[0], &ready, 1) != 1) throw std::runtime_error("bench: the child process failed to start");
     bus.EndHandshake();
@@ -167,7 +178,7 @@ PingPongResult PingPong(const std::string& transport, const std::string& kind, i
     image.data.assign(640 * 480 * 3, 0x5a);  // an incompressible 640x480 RGB PNG is about this size
     iapsim_msgs::Tick tick;
 
-    result.message_bytes = kind == "image" ? ros::serialization::serializationLength(image)
+    result.message_bytes = kind == "image"   ? ros::serialization::serializationLength(image)
                            : kind == "state" ? ros::serialization::serializationLength(state)
                                              : ros::serialization::serializationLength(tick);
     const auto start = Clock::now();
@@ -207,7 +218,8 @@ PingPongResult PingPong(const std::string& transport, const std::string& kind, i
   waitpid(pid, &status, 0);
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) throw std::runtime_error("bench: child process failed");
   result.latencies_us = nlohmann::json::parse(report).get<std::vector<double>>();
-  if (!result.latencies_us.empty()) result.latencies_us.erase(result.latencies_us.begin());  // connection warm-up
+  if (!result.latencies_us.empty())
+    result.latencies_us.erase(result.latencies_us.begin());  // connection warm-up
   return result;
 }
 
@@ -225,19 +237,21 @@ int BenchBus(const std::string& json_path) {
       const PingPongResult r = PingPong(transport, kind, index++, count);
       const size_t bytes = r.message_bytes;
       const double p50 = Percentile(r.latencies_us, 0.50), p99 = Percentile(r.latencies_us, 0.99);
-      const double max = r.latencies_us.empty() ? 0.0 : *std::max_element(r.latencies_us.begin(), r.latencies_us.end());
-      const std::string label = kind == "state" ? "iapsim_msgs/IapState (4 bodies)" : "sensor_msgs/CompressedImage";
+      const double max =
+          r.latencies_us.empty() ? 0.0 : *std::max_element(r.latencies_us.begin(), r.latencies_us.end());
+      const std::string label =
+          kind == "state" ? "iapsim_msgs/IapState (4 bodies)" : "sensor_msgs/CompressedImage";
       std::printf("%-9s %-34s %9zu %9zu %10.1f %10.1f %10.1f\n", transport.c_str(), label.c_str(), bytes,
                   r.latencies_us.size(), p50, p99, max);
-      out["latency"][transport][kind] = {{"samples", r.latencies_us.size()}, {"p50_us", p50}, {"p99_us", p99},
-                                         {"max_us", max}};
+      out["latency"][transport][kind] = {
+          {"samples", r.latencies_us.size()}, {"p50_us", p50}, {"p99_us", p99}, {"max_us", max}};
     }
   }
   std::printf("\n%-9s %-34s %12s %14s\n", "transport", "lockstep round trip", "round trips", "per second");
   for (const std::string transport : {"ipc", "tcp"}) {
     const PingPongResult r = PingPong(transport, "tick", index++, 50000);
-    std::printf("%-9s %-34s %12llu %14.0f\n", transport.c_str(), "tick -> ack", static_cast<unsigned long long>(r.round_trips),
-                r.round_trips_per_s);
+    std::printf("%-9s %-34s %12llu %14.0f\n", transport.c_str(), "tick -> ack",
+                static_cast<unsigned long long>(r.round_trips), r.round_trips_per_s);
     out["lockstep_round_trips_per_s"][transport] = r.round_trips_per_s;
   }
   std::printf("\ntargets: state p99 over ipc < 100 us; >= 20000 lockstep round trips/s\n");

@@ -65,9 +65,9 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
   const auto metrics = nlohmann::json::parse(metrics_file, nullptr, false);
   std::printf("run complete: %s\n", result.run_dir.c_str());
   if (metrics.is_object() && metrics.contains("sim_time_s")) {
-    std::printf("  sim time %.3f s in %.2f s wall (x%.2f real time), mode %s\n", metrics["sim_time_s"].get<double>(),
-                metrics["wall_time_s"].get<double>(), metrics["real_time_factor"].get<double>(),
-                metrics["mode"].get<std::string>().c_str());
+    std::printf("  sim time %.3f s in %.2f s wall (x%.2f real time), mode %s\n",
+                metrics["sim_time_s"].get<double>(), metrics["wall_time_s"].get<double>(),
+                metrics["real_time_factor"].get<double>(), metrics["mode"].get<std::string>().c_str());
   }
   std::printf("  %s/scenario.resolved.yaml   configuration as used\n", result.run_dir.c_str());
   std::printf("  %s/metrics.json             figures of the run\n", result.run_dir.c_str());
@@ -75,8 +75,8 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
     const auto& recorded = metrics["processes"]["recorder"]["process"]["recorded"];
     uint64_t total = 0;
     for (const auto& [topic, count] : recorded.items()) total += count.get<uint64_t>();
-    std::printf("  %s/run.bag                  %llu messages on %zu topics (iapsim info)\n", result.run_dir.c_str(),
-                static_cast<unsigned long long>(total), recorded.size());
+    std::printf("  %s/run.bag                  %llu messages on %zu topics (iapsim info)\n",
+                result.run_dir.c_str(), static_cast<unsigned long long>(total), recorded.size());
   }
   std::printf("  %s/log.txt, logs/           launcher and per-process logs\n", result.run_dir.c_str());
   return 0;
@@ -127,13 +127,14 @@ int Info(const std::string& bag_path) {
     topic_width = std::max(topic_width, t.topic.size());
     type_width = std::max(type_width, t.datatype.size());
   }
-  std::printf("%-*s  %-*s  %10s  %10s\n", static_cast<int>(topic_width), "topic", static_cast<int>(type_width),
-              "type", "count", "rate_hz");
+  std::printf("%-*s  %-*s  %10s  %10s\n", static_cast<int>(topic_width), "topic",
+              static_cast<int>(type_width), "type", "count", "rate_hz");
   for (const auto& t : topics) {
     const double span_s = Seconds(t.last_time_ns - t.first_time_ns);
     const double rate = t.count > 1 && span_s > 0 ? static_cast<double>(t.count - 1) / span_s : 0.0;
     std::printf("%-*s  %-*s  %10llu  %10.2f\n", static_cast<int>(topic_width), t.topic.c_str(),
-                static_cast<int>(type_width), t.datatype.c_str(), static_cast<unsigned long long>(t.count), rate);
+                static_cast<int>(type_width), t.datatype.c_str(), static_cast<unsigned long long>(t.count),
+                rate);
   }
   return 0;
 }
@@ -160,8 +161,10 @@ int Export(const ExportArgs& args) {
     if (args.format == "csv") {
       csv.Write(m.record_time_ns, Flatten(*schema, m.bytes.data(), m.bytes.size()));
     } else {
-      const auto pose = ExtractPose(*schema, m.bytes.data(), m.bytes.size(), m.record_time_ns, args.pose_field);
-      if (!pose) throw std::runtime_error("topic '" + args.topic + "' (" + topic->datatype + ") holds no pose");
+      const auto pose =
+          ExtractPose(*schema, m.bytes.data(), m.bytes.size(), m.record_time_ns, args.pose_field);
+      if (!pose)
+        throw std::runtime_error("topic '" + args.topic + "' (" + topic->datatype + ") holds no pose");
       out << FormatTum(*pose) << "\n";
     }
     ++written;
@@ -191,7 +194,8 @@ int Topics(const LiveArgs& args) {
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(args.listen_s);
   while (std::chrono::steady_clock::now() < end) bus->Spin(std::chrono::milliseconds(20));
   if (seen.empty()) {
-    std::printf("no messages within %.1f s: is the run in %s still going?\n", args.listen_s, args.run_dir.c_str());
+    std::printf("no messages within %.1f s: is the run in %s still going?\n", args.listen_s,
+                args.run_dir.c_str());
     return 1;
   }
   std::printf("%-40s %-32s %-12s %10s\n", "topic", "type", "publisher", "rate_hz");
@@ -209,8 +213,8 @@ int Echo(const LiveArgs& args) {
     if (info.topic != args.topic || (args.count >= 0 && printed >= args.count)) return;
     const RegisteredType* type = FindType(info.datatype);
     if (!type) {
-      std::printf("--- %s from %s: %zu bytes of unknown type %s\n", info.topic.c_str(), info.publisher.c_str(), size,
-                  info.datatype.c_str());
+      std::printf("--- %s from %s: %zu bytes of unknown type %s\n", info.topic.c_str(),
+                  info.publisher.c_str(), size, info.datatype.c_str());
     } else {
       std::printf("---\n%s", FormatYaml(*type->schema, data, size).c_str());
     }

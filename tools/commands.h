@@ -10,7 +10,7 @@ namespace iapsim::tools {
 struct RunArgs {
   std::string scenario;
   std::string out_dir;
-  std::string mode;                    // empty: the scenario's
+  std::string mode;  // empty: the scenario's
   std::optional<double> duration_s;
   std::optional<uint64_t> seed;
   std::vector<std::string> overrides;  // KEY=VALUE
@@ -45,7 +45,8 @@ struct LiveArgs {
 int Topics(const LiveArgs& args);
 int Echo(const LiveArgs& args);
 
-/// Bus latency (ipc/tcp, state-sized and image-sized messages) and lockstep round trips between two processes.
+/// Bus latency (ipc/tcp, state-sized and image-sized messages) and lockstep round trips between two
+/// processes.
 int BenchBus(const std::string& json_path);
 
 }  // namespace iapsim::tools

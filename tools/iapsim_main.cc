@@ -11,7 +11,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
 
   RunArgs run;
-  auto* run_cmd = app.add_subcommand("run", "run a scenario: start its process graph, supervise it, write a run directory");
+  auto* run_cmd = app.add_subcommand(
+      "run", "run a scenario: start its process graph, supervise it, write a run directory");
   run_cmd->add_option("scenario", run.scenario, "scenario YAML")->required()->check(CLI::ExistingFile);
   run_cmd->add_option("--out", run.out_dir, "run directory (default runs/<name>-<UTC time>)");
   run_cmd->add_option("--mode", run.mode, "lockstep, fast or realtime")
@@ -23,7 +24,9 @@ int main(int argc, char** argv) {
   ReplayArgs replay;
   auto* replay_cmd = app.add_subcommand("replay", "play recorded topics of a bag into a run of a scenario");
   replay_cmd->add_option("bag", replay.bag, "bag file")->required()->check(CLI::ExistingFile);
-  replay_cmd->add_option("--scenario", replay.run.scenario, "scenario YAML")->required()->check(CLI::ExistingFile);
+  replay_cmd->add_option("--scenario", replay.run.scenario, "scenario YAML")
+      ->required()
+      ->check(CLI::ExistingFile);
   replay_cmd->add_option("--topics", replay.topics, "topics to play (default: all)");
   replay_cmd->add_option("--map", replay.map, "rename a topic: FROM:=TO (repeatable)");
   replay_cmd->add_option("--out", replay.run.out_dir, "run directory");

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <fstream>
 #include <random>
 #include <thread>
 
@@ -32,7 +33,10 @@ ros::Time ToRosTime(int64_t ns) {
 class TestNode : public Process {
  public:
   TestNode(const ProcessContext& context, YamlMap& params)
-      : mode_(context.scenario.mode), rng_(context.seed), step_s_(context.scenario.clock.step_s) {
+      : mode_(context.scenario.mode),
+        rng_(context.seed),
+        step_s_(context.scenario.clock.step_s),
+        run_dir_(context.run_dir) {
     params.OptionalChoice("behavior", &behavior_, {"clock", "controller", "sensor"});
     params.Optional("vehicle", &vehicle_);
     params.OptionalInRange("bodies", &bodies_, 1, 64);
@@ -45,23 +49,29 @@ class TestNode : public Process {
   void Setup(Bus& bus) override {
     bus_ = &bus;
     if (behavior_ == "clock") {
-      bus.Subscribe<iapsim_msgs::IapCommand>("/" + vehicle_ + "/cmd", [this](const iapsim_msgs::IapCommand& c,
-                                                                              const MessageInfo&) {
-        command_ = c;
-        ++commands_received_;
-      });
+      bus.Subscribe<iapsim_msgs::IapCommand>("/" + vehicle_ + "/cmd",
+                                             [this](const iapsim_msgs::IapCommand& c, const MessageInfo&) {
+                                               command_ = c;
+                                               ++commands_received_;
+                                             });
     } else {
-      bus.Subscribe<iapsim_msgs::IapState>("/" + vehicle_ + "/state", [this](const iapsim_msgs::IapState& s,
-                                                                              const MessageInfo&) {
-        if (have_state_ && s.step <= state_.step) Fail("state step " + std::to_string(s.step) + " repeated");
-        state_ = s;
-        have_state_ = true;
-      });
+      bus.Subscribe<iapsim_msgs::IapState>("/" + vehicle_ + "/state",
+                                           [this](const iapsim_msgs::IapState& s, const MessageInfo&) {
+                                             if (have_state_ && s.step <= state_.step)
+                                               Fail("state step " + std::to_string(s.step) + " repeated");
+                                             state_ = s;
+                                             have_state_ = true;
+                                           });
     }
   }
 
   void Step(const StepInfo& step) override {
-    if (static_cast<int64_t>(step.step) == kill_at_step_) raise(SIGKILL);
+    if (static_cast<int64_t>(step.step) == kill_at_step_) {
+      // leave the moment of death for the test (CLOCK_MONOTONIC is shared by every process)
+      std::ofstream(run_dir_ + "/killed_at_ns")
+          << std::chrono::steady_clock::now().time_since_epoch() / std::chrono::nanoseconds(1);
+      raise(SIGKILL);
+    }
     if (static_cast<int64_t>(step.step) == hang_at_step_) {
       while (true) std::this_thread::sleep_for(std::chrono::seconds(1));
     }
@@ -133,7 +143,8 @@ class TestNode : public Process {
     std::normal_distribution<double> noise(0.0, noise_m_);
     for (int anchor = 0; anchor < 4; ++anchor) {
       ranges.peers.push_back("anchor" + std::to_string(anchor));
-      const double true_range = 2.0 + anchor + (state_.bodies.empty() ? 0.0 : state_.bodies[0].pose_W.position.z);
+      const double true_range =
+          2.0 + anchor + (state_.bodies.empty() ? 0.0 : state_.bodies[0].pose_W.position.z);
       ranges.ranges_m.push_back(true_range + noise(rng_));
     }
     bus_->Publish("/" + vehicle_ + "/uwb", ranges);
@@ -142,6 +153,7 @@ class TestNode : public Process {
   ClockMode mode_;
   std::mt19937_64 rng_;
   double step_s_;
+  std::string run_dir_;
   std::string behavior_ = "controller";
   std::string vehicle_ = "iap";
   int bodies_ = 4;

@@ -1,0 +1,257 @@
+// Cross-process tests: real process graphs (iapsim_test_node, iapsim_recorder, iapsim_replayer) started by
+// the launcher, checked through the bag, metrics.json and what the launcher reports.
+
+#include "bridge/launcher.h"
+
+#include <dirent.h>
+#include <gtest/gtest.h>
+#include <iapsim_msgs/UwbRanges.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "bridge/bag.h"
+
+namespace iapsim::bridge {
+namespace {
+
+namespace fs = std::filesystem;
+
+class LauncherTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::path(::testing::TempDir()) /
+           ("iapsim-" + std::string(info->name()) + "-" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+
+  std::string WriteScenario(const std::string& name, const std::string& text) {
+    const std::string path = (dir_ / (name + ".yaml")).string();
+    std::ofstream(path) << text;
+    return path;
+  }
+
+  LaunchResult Run(const std::string& scenario, const std::string& out,
+                   std::vector<std::string> overrides = {}) {
+    LaunchOptions options;
+    options.scenario_path = scenario;
+    options.out_dir = (dir_ / out).string();
+    options.bin_dir = ExecutableDir();
+    options.overrides = std::move(overrides);
+    return Launch(options);
+  }
+
+  static nlohmann::json Metrics(const LaunchResult& result) {
+    std::ifstream in(result.run_dir + "/metrics.json");
+    return nlohmann::json::parse(in);
+  }
+
+  fs::path dir_;
+};
+
+// clock (1 kHz) -> controller (1 kHz) -> clock, a 200 Hz sensor, and the recorder
+std::string LoopScenario(double duration_s) {
+  std::ostringstream s;
+  s << "name: loop\n"
+       "mode: lockstep\n"
+       "duration_s: "
+    << duration_s
+    << "\n"
+       "seed: 42\n"
+       "clock: {step_s: 0.001, ack_timeout_s: 5.0}\n"
+       "processes:\n"
+       "  physics:\n"
+       "    exec: iapsim_test_node\n"
+       "    role: clock\n"
+       "    params: {behavior: clock}\n"
+       "  control:\n"
+       "    exec: iapsim_test_node\n"
+       "    params: {behavior: controller}\n"
+       "  uwb:\n"
+       "    exec: iapsim_test_node\n"
+       "    role: observer\n"
+       "    rate_hz: 200\n"
+       "    params: {behavior: sensor, noise_m: 0.2}\n";
+  return s.str();
+}
+
+std::string FileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// processes of this test's runs still alive (their command line names the test's directory)
+int ProcessesMentioning(const std::string& text) {
+  int count = 0;
+  DIR* proc = opendir("/proc");
+  while (dirent* entry = readdir(proc)) {
+    if (entry->d_name[0] < '0' || entry->d_name[0] > '9') continue;
+    std::ifstream in(std::string("/proc/") + entry->d_name + "/cmdline", std::ios::binary);
+    const std::string cmdline((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (cmdline.find(text) != std::string::npos && std::to_string(getpid()) != entry->d_name) ++count;
+  }
+  closedir(proc);
+  return count;
+}
+
+TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeterministically) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(100.0));
+  std::string first_bag;
+  for (const std::string run : {"a", "b"}) {
+    const LaunchResult result = Run(scenario, run);
+    ASSERT_EQ(result.exit_code, 0) << result.message;
+    const auto metrics = Metrics(result);
+    // every process stepped exactly the steps it was due at (each also checks none was skipped or repeated)
+    EXPECT_EQ(metrics["processes"]["control"]["process"]["steps"], 100001);
+    EXPECT_EQ(metrics["processes"]["uwb"]["process"]["steps"], 20001);
+    EXPECT_EQ(metrics["processes"]["physics"]["process"]["commands_received"], 100001);
+
+    // what was published is what the bag holds, topic by topic
+    BagReader bag(result.run_dir + "/run.bag");
+    std::map<std::string, uint64_t> in_bag;
+    for (const auto& t : bag.Topics()) in_bag[t.topic] = t.count;
+    EXPECT_EQ(in_bag["/iap/state"], 100001u);
+    EXPECT_EQ(in_bag["/iap/cmd"], 100001u);
+    EXPECT_EQ(in_bag["/iap/uwb"], 20001u);
+    EXPECT_EQ(in_bag["/clock"], 100001u);
+    for (const std::string process : {"physics", "control", "uwb"}) {
+      for (const auto& [topic, counters] : metrics["processes"][process]["bus"]["topics"].items()) {
+        if (topic.rfind("/iapsim/", 0) == 0) continue;
+        // a topic a process publishes: all of it is in the bag; one it subscribes to: it got all of it
+        const bool published = counters["sent"].get<uint64_t>() > 0;
+        EXPECT_EQ(counters[published ? "sent" : "received"].get<uint64_t>(), in_bag[topic])
+            << process << " " << topic;
+        EXPECT_EQ(counters["dropped"].get<uint64_t>(), 0u) << process << " " << topic;
+        EXPECT_EQ(counters["lost"].get<uint64_t>(), 0u) << process << " " << topic;
+      }
+    }
+    // record times are the sim time of the step that published the message
+    int64_t last_uwb_ns = -1;
+    bag.ForEach({"/iap/uwb"}, [&](const BagMessage& m) {
+      iapsim_msgs::UwbRanges ranges;
+      EXPECT_TRUE(Decode(m.bytes, &ranges, nullptr));
+      // a bag cannot hold time 0: the first record time is 1 ns
+      EXPECT_EQ(std::max<int64_t>(1, static_cast<int64_t>(ranges.header.stamp.toNSec())), m.record_time_ns);
+      EXPECT_GT(m.record_time_ns, last_uwb_ns);
+      last_uwb_ns = m.record_time_ns;
+      return true;
+    });
+    const std::string bytes = FileBytes(result.run_dir + "/run.bag");
+    if (first_bag.empty()) {
+      first_bag = bytes;
+    } else {
+      EXPECT_TRUE(bytes == first_bag) << "two runs with the same seed wrote different bags";
+    }
+  }
+}
+
+TEST_F(LauncherTest, KilledParticipantEndsTheRunWithinOneSecondAndLeavesAReadableBag) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(60.0));
+  const LaunchResult result = Run(scenario, "run", {"processes.control.params.kill_at_step=1500"});
+  const auto end = std::chrono::steady_clock::now();
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.message.find("'control'"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("signal 9"), std::string::npos) << result.message;
+
+  // the kill happened at step 1500; the run must be over within a second of it
+  BagReader bag(result.run_dir + "/run.bag");
+  std::map<std::string, uint64_t> in_bag;
+  for (const auto& t : bag.Topics()) in_bag[t.topic] = t.count;
+  EXPECT_EQ(in_bag["/iap/cmd"], 1500u);  // steps 0..1499, everything published before the crash
+  EXPECT_EQ(in_bag["/iap/state"], 1501u);
+  std::ifstream killed_at(result.run_dir + "/killed_at_ns");
+  int64_t killed_at_ns = 0;
+  ASSERT_TRUE(killed_at >> killed_at_ns);
+  const double ended_after_s =
+      static_cast<double>(end.time_since_epoch() / std::chrono::nanoseconds(1) - killed_at_ns) * 1e-9;
+  EXPECT_LT(ended_after_s, 1.0) << "the run took " << ended_after_s << " s to end after the kill";
+  EXPECT_GT(ended_after_s, 0.0);
+  const auto metrics = Metrics(result);
+  EXPECT_EQ(ProcessesMentioning(dir_.string()), 0) << "processes left behind";
+  EXPECT_EQ(metrics["result"], "failed");
+}
+
+TEST_F(LauncherTest, HungParticipantIsDetectedAndNamed) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(60.0));
+  const LaunchResult result = Run(scenario, "run", {"processes.uwb.params.hang_at_step=1000"});
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.message.find("'uwb'"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("not responding"), std::string::npos) << result.message;
+  EXPECT_EQ(ProcessesMentioning(dir_.string()), 0) << "processes left behind";
+  BagReader bag(result.run_dir + "/run.bag");
+  EXPECT_FALSE(bag.Topics().empty());
+}
+
+TEST_F(LauncherTest, ConfigurationErrorsNameTheFileLineAndKey) {
+  struct Case {
+    std::string name, find, replace, expect;
+  };
+  const std::vector<Case> cases = {
+      {"typo", "    role: observer\n", "    role: observer\n    rate_hzz: 100\n", "did you mean 'rate_hz'"},
+      {"type", "duration_s: 5", "duration_s: five", "expected a number"},
+      {"param", "{behavior: sensor, noise_m: 0.2}", "{behavior: sensor, noise: 0.2}",
+       "did you mean 'noise_m'"},
+      {"exec", "exec: iapsim_test_node\n    role: clock", "exec: no_such_program\n    role: clock",
+       "no executable"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    std::string text = LoopScenario(5.0);
+    const auto at = text.find(c.find);
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, c.find.size(), c.replace);
+    const std::string path = WriteScenario(c.name, text);
+    const LaunchResult result = Run(path, c.name);
+    EXPECT_EQ(result.exit_code, 2) << result.message;
+    EXPECT_NE(result.message.find(c.expect), std::string::npos) << result.message;
+    EXPECT_NE(result.message.find(path + ":"), std::string::npos) << result.message;
+    EXPECT_TRUE(result.run_dir.empty()) << "a run directory was created for a bad configuration";
+  }
+  // a missing file named in params (the replayer's bag): exit 2 with the line of the key
+  const std::string path = WriteScenario("loop", LoopScenario(5.0));
+  const LaunchResult missing =
+      Run(path, "missing",
+          {"processes.replayer.exec=iapsim_replayer", "processes.replayer.params.bag=/nope.bag"});
+  EXPECT_EQ(missing.exit_code, 2) << missing.message;
+  EXPECT_NE(missing.message.find("/nope.bag"), std::string::npos) << missing.message;
+  EXPECT_NE(missing.message.find("processes.replayer.params.bag"), std::string::npos) << missing.message;
+}
+
+TEST_F(LauncherTest, ReplayPlaysRecordedTopicsReStampedOntoSimTime) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
+  const LaunchResult recorded = Run(scenario, "recorded");
+  ASSERT_EQ(recorded.exit_code, 0) << recorded.message;
+  const std::string bag_path = recorded.run_dir + "/run.bag";
+  const LaunchResult replayed = Run(
+      scenario, "replayed",
+      {"processes.replayer.exec=iapsim_replayer", "processes.replayer.params.bag=" + bag_path,
+       "processes.replayer.params.topics=[/iap/uwb]", "processes.replayer.params.map=[/iap/uwb:=/old/uwb]",
+       "processes.replayer.params.time_offset_s=0.5"});
+  ASSERT_EQ(replayed.exit_code, 0) << replayed.message;
+  BagReader bag(replayed.run_dir + "/run.bag");
+  uint64_t count = 0;
+  bag.ForEach({"/old/uwb"}, [&](const BagMessage& m) {
+    iapsim_msgs::UwbRanges ranges;
+    EXPECT_TRUE(Decode(m.bytes, &ranges, nullptr));
+    // recorded every 5 ms from t = 0; replayed from 0.5 s, published in the step before it is due
+    const int64_t due_ns = 500000000 + static_cast<int64_t>(count) * 5000000;
+    EXPECT_EQ(static_cast<int64_t>(ranges.header.stamp.toNSec()), due_ns);
+    EXPECT_EQ(m.record_time_ns, due_ns - 1000000);
+    ++count;
+    return true;
+  });
+  // the recording spans 0..2 s; from 0.5 s on, the messages due by 2 s are played
+  EXPECT_EQ(count, 301u);
+}
+
+}  // namespace
+}  // namespace iapsim::bridge

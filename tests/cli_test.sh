@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# End-to-end test of the iapsim program as a user runs it: run, info, export, topics, echo, bad configuration,
+# SIGTERM of a running launcher (clean stop, no process left behind).
+# usage: cli_test.sh BUILD_BIN_DIR SOURCE_DIR
+set -euo pipefail
+bin=$1
+src=$2
+iapsim=$bin/iapsim
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+# every subcommand answers --help
+for cmd in run replay info export topics echo bench; do
+  "$iapsim" "$cmd" --help > /dev/null || fail "$cmd --help"
+done
+
+# a short lockstep run with a complete run directory
+"$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --duration 1 --seed 3 --out "$work/run" > "$work/run.out"
+grep -q "run complete: $work/run" "$work/run.out" || fail "no completion line: $(cat "$work/run.out")"
+for f in scenario.resolved.yaml run.bag metrics.json log.txt logs/physics.log; do
+  [ -s "$work/run/$f" ] || fail "run directory lacks $f"
+done
+grep -q "seed: 3" "$work/run/scenario.resolved.yaml" || fail "--seed not in the resolved scenario"
+
+"$iapsim" info "$work/run/run.bag" > "$work/info.out"
+grep -Eq "^/iap/state +iapsim_msgs/IapState +1001 +1000.00" "$work/info.out" || fail "info: $(cat "$work/info.out")"
+"$iapsim" export "$work/run/run.bag" --topic /iap/state --format tum --pose-field 'bodies[0].pose_W' -o "$work/gt.tum"
+[ "$(wc -l < "$work/gt.tum")" -eq 1001 ] || fail "tum export has $(wc -l < "$work/gt.tum") lines"
+"$iapsim" export "$work/run/run.bag" --topic /iap/uwb --format csv > "$work/uwb.csv"
+head -1 "$work/uwb.csv" | grep -q "^time_s,header.seq,header.stamp" || fail "csv header: $(head -1 "$work/uwb.csv")"
+[ "$(wc -l < "$work/uwb.csv")" -eq 202 ] || fail "csv has $(wc -l < "$work/uwb.csv") lines"
+
+# bad configuration: exit code 2 and file:line in the message
+sed 's/^duration_s: 5.0/duration_s: soon/' "$src/configs/scenarios/bus_demo.yaml" > "$work/bad.yaml"
+set +e
+"$iapsim" run "$work/bad.yaml" --out "$work/bad" 2> "$work/bad.err"
+code=$?
+set -e
+[ $code -eq 2 ] || fail "bad configuration exited $code"
+grep -q "$work/bad.yaml:[0-9]*:[0-9]*: duration_s: expected a number" "$work/bad.err" || fail "message: $(cat "$work/bad.err")"
+
+# a realtime run: inspect it live, then stop it with SIGTERM
+"$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --mode realtime --duration 60 --out "$work/live" \
+  > "$work/live.out" 2>&1 &
+launcher=$!
+for _ in $(seq 100); do
+  [ -f "$work/live/log.txt" ] && grep -q "clock started" "$work/live/log.txt" && break
+  sleep 0.1
+done
+"$iapsim" topics --run "$work/live" --listen 1 > "$work/topics.out" || fail "topics: $(cat "$work/topics.out") $(cat "$work/live.out")"
+grep -Eq "^/iap/state +iapsim_msgs/IapState +physics" "$work/topics.out" || fail "topics: $(cat "$work/topics.out")"
+timeout 10 "$iapsim" echo /iap/state --run "$work/live" -n 2 > "$work/echo.out" || fail "echo timed out"
+[ "$(grep -c '^---' "$work/echo.out")" -eq 2 ] || fail "echo: $(cat "$work/echo.out")"
+grep -q "frame_id: W" "$work/echo.out" || fail "echo: $(cat "$work/echo.out")"
+
+kill -TERM $launcher
+start=$(date +%s%N)
+set +e
+wait $launcher
+code=$?
+set -e
+elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
+[ $code -eq 130 ] || fail "SIGTERM: launcher exited $code: $(cat "$work/live.out")"
+[ $elapsed_ms -lt 2000 ] || fail "SIGTERM: stopping took $elapsed_ms ms"
+if pgrep -f -- "$work/live" > /dev/null; then fail "processes left behind: $(pgrep -af -- "$work/live")"; fi
+"$iapsim" info "$work/live/run.bag" > /dev/null || fail "the stopped run's bag is not readable"
+
+echo "cli_test: all checks passed"
