@@ -10,6 +10,7 @@
 #include <iapsim_msgs/Tick.h>
 #include <poll.h>
 #include <sensor_msgs/CompressedImage.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -199,9 +200,10 @@ PingPongResult PingPong(const std::string& transport, const std::string& kind, i
         tick.final = last;
         bus.Publish("/ping", tick);
       }
-      const auto deadline = Clock::now() + std::chrono::seconds(5);
+      const auto answer_deadline = Clock::now() + std::chrono::seconds(5);
       while (!(have_ack && acked == static_cast<uint64_t>(i))) {
-        if (Clock::now() > deadline) throw std::runtime_error("bench: no answer from the child process");
+        if (Clock::now() > answer_deadline)
+          throw std::runtime_error("bench: no answer from the child process");
         bus.Spin(milliseconds(1));
       }
     }
@@ -221,6 +223,31 @@ PingPongResult PingPong(const std::string& transport, const std::string& kind, i
   if (!result.latencies_us.empty())
     result.latencies_us.erase(result.latencies_us.begin());  // connection warm-up
   return result;
+}
+
+// The machine's floor for a blocking cross-process exchange: one byte back and forth over a unix socket
+// pair, no library in between. Bus figures are reported against it.
+double BareSocketRoundTripsPerSecond(int count) {
+  int sv[2];
+  if (socketpair(AF_UNIX, SOCK_STREAM, 0, sv) != 0) throw std::runtime_error("bench: socketpair");
+  const pid_t pid = fork();
+  if (pid == 0) {
+    char c;
+    for (int i = 0; i < count; ++i) {
+      if (read(sv[1], &c, 1) != 1 || write(sv[1], &c, 1) != 1) _exit(1);
+    }
+    _exit(0);
+  }
+  char c = 'x';
+  const auto start = Clock::now();
+  for (int i = 0; i < count; ++i) {
+    if (write(sv[0], &c, 1) != 1 || read(sv[0], &c, 1) != 1) throw std::runtime_error("bench: socket pair");
+  }
+  const double elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
+  waitpid(pid, nullptr, 0);
+  close(sv[0]);
+  close(sv[1]);
+  return count / elapsed_s;
 }
 
 }  // namespace
@@ -247,11 +274,16 @@ int BenchBus(const std::string& json_path) {
           {"samples", r.latencies_us.size()}, {"p50_us", p50}, {"p99_us", p99}, {"max_us", max}};
     }
   }
-  std::printf("\n%-9s %-34s %12s %14s\n", "transport", "lockstep round trip", "round trips", "per second");
+  const double bare = BareSocketRoundTripsPerSecond(50000);
+  std::printf("\n%-9s %-34s %12s %14s %16s\n", "transport", "round trip between two processes", "round trips",
+              "per second", "vs bare socket");
+  std::printf("%-9s %-34s %12d %14.0f %16.2f\n", "unix", "1 byte, no library (baseline)", 50000, bare, 1.0);
+  out["bare_unix_socket_round_trips_per_s"] = bare;
   for (const std::string transport : {"ipc", "tcp"}) {
     const PingPongResult r = PingPong(transport, "tick", index++, 50000);
-    std::printf("%-9s %-34s %12llu %14.0f\n", transport.c_str(), "tick -> ack",
-                static_cast<unsigned long long>(r.round_trips), r.round_trips_per_s);
+    std::printf("%-9s %-34s %12llu %14.0f %16.2f\n", transport.c_str(), "lockstep tick -> ack",
+                static_cast<unsigned long long>(r.round_trips), r.round_trips_per_s,
+                r.round_trips_per_s / bare);
     out["lockstep_round_trips_per_s"][transport] = r.round_trips_per_s;
   }
   std::printf("\ntargets: state p99 over ipc < 100 us; >= 20000 lockstep round trips/s\n");
