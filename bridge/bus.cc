@@ -93,7 +93,9 @@ Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
   auto& pub = impl_->publisher;
   auto& sub = impl_->subscriber;
   pub.set(zmq::sockopt::sndhwm, options.send_hwm);
-  pub.set(zmq::sockopt::xpub_nodrop, 1);  // full queue -> EAGAIN, so drops are counted, never silent
+  // kBlock: a full queue makes send fail (EAGAIN) so we can wait; kDropNewest: ZeroMQ drops per subscriber,
+  // so only the slow one misses messages and sees them as gaps in the sequence
+  pub.set(zmq::sockopt::xpub_nodrop, options.drop_policy == DropPolicy::kBlock ? 1 : 0);
   pub.set(zmq::sockopt::linger, 500);
   sub.set(zmq::sockopt::rcvhwm, options.receive_hwm);
   sub.set(zmq::sockopt::linger, 0);

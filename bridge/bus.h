@@ -8,9 +8,11 @@
 // Frames on the wire: [topic '\0'] [meta: version, per-topic sequence, datatype, md5, publisher] [payload].
 //
 // Queues and drops: each connection queues up to `send_hwm` messages at the publisher and `receive_hwm` at
-// the subscriber. When a subscriber's queue is full the publisher either drops the message and counts it
-// (kDropNewest, for best-effort streams) or waits up to `block_timeout` for room (kBlock). Subscribers count
-// gaps in the per-topic sequence as lost messages.
+// the subscriber. When a subscriber's queue is full:
+//   kDropNewest (best effort): that subscriber alone misses the message; it counts the gap in the per-topic
+//               sequence as lost, and every other subscriber is unaffected.
+//   kBlock (lossless, lockstep): the publisher waits up to `block_timeout` for room, then drops the message
+//               for everyone and counts it as dropped.
 
 #include <chrono>
 #include <cstdint>

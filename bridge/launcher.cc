@@ -183,7 +183,11 @@ class Supervisor {
   }
 
   const std::vector<Child>& children() const { return children_; }
-  double wall_s() const { return std::chrono::duration<double>(Clock::now() - running_since_).count(); }
+  /// Wall time of the clock: from start to the clock owner's "done" (or to now, if it never came).
+  double wall_s() const {
+    const auto end = completed_ ? done_at_ : Clock::now();
+    return std::chrono::duration<double>(end - running_since_).count();
+  }
   bool interrupted() const { return interrupted_; }
 
  private:
@@ -214,6 +218,7 @@ class Supervisor {
         child->sim_ns = std::atoll(message->body.c_str());
       } else if (message->kind == "done") {
         completed_ = true;
+        done_at_ = Clock::now();
         log_->info("run complete: {} reached the end of the scenario", child->name);
         Stop(milliseconds(5000));
       } else if (message->kind == "error") {
@@ -338,7 +343,7 @@ class Supervisor {
   ControlServer& server_;
   std::shared_ptr<spdlog::logger> log_;
   bool progress_;
-  Clock::time_point started_, running_since_, stop_deadline_, last_progress_;
+  Clock::time_point started_, running_since_, done_at_, stop_deadline_, last_progress_;
   bool running_ = false, stopping_ = false, terminated_ = false, completed_ = false, interrupted_ = false;
   std::string failure_;
 };

@@ -23,6 +23,7 @@
 #include <stdexcept>
 
 #include "bridge/message.h"
+#include "bridge/testing/sample_messages.h"
 
 namespace iapsim::bridge {
 namespace {
@@ -59,28 +60,6 @@ std::string InvalidArgumentOf(F&& f) {
 
 bool SameBits(double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; }
 
-iapsim_msgs::IapState MakeState() {
-  iapsim_msgs::IapState state;
-  state.header.seq = 7;
-  state.header.stamp = ros::Time(1, 5000000);
-  state.header.frame_id = "W";
-  state.step = 1005;
-  state.bodies.resize(4);
-  for (size_t i = 0; i < state.bodies.size(); ++i) {
-    state.bodies[i].name = i == 0 ? "platform" : "sub" + std::to_string(i);
-    state.bodies[i].pose_W.position.x = 0.48 * static_cast<double>(i);
-    state.bodies[i].pose_W.position.y = 0.1 * static_cast<double>(i);
-    state.bodies[i].pose_W.position.z = -1.0 / 3.0;
-    state.bodies[i].pose_W.orientation.w = 1.0;
-    state.bodies[i].twist_B.angular.z = -0.25;
-  }
-  state.bodies[1].name = "1.5";  // reads as a float unless quoted
-  state.joints.resize(3);
-  state.joints[2].type = iapsim_msgs::JointState::TYPE_FIXED;
-  state.external_wrench_P.force.z = 19.62;
-  return state;
-}
-
 TEST(FormatYaml, PrintsNestedMessagesIndentedByTwo) {
   geometry_msgs::PoseStamped pose;
   pose.header.seq = 3;
@@ -108,7 +87,7 @@ TEST(FormatYaml, PrintsNestedMessagesIndentedByTwo) {
 }
 
 TEST(FormatYaml, PrintsArraysOfMessagesAsDashItems) {
-  const std::string text = Yaml(MakeState());
+  const std::string text = Yaml(testing::MakeSampleState());
   EXPECT_NE(text.find("step: 1005\nbodies:\n"
                       "  - name: platform\n"
                       "    pose_W:\n"
@@ -124,7 +103,7 @@ TEST(FormatYaml, PrintsArraysOfMessagesAsDashItems) {
 }
 
 TEST(FormatYaml, ParsesBackWithTheSameValues) {
-  const auto state = MakeState();
+  const auto state = testing::MakeSampleState();
   const YAML::Node root = YAML::Load(Yaml(state));
   EXPECT_EQ(root["header"]["seq"].as<uint32_t>(), 7u);
   EXPECT_EQ(root["header"]["stamp"].as<std::string>(), "1.005000000");
@@ -217,7 +196,7 @@ TEST(FormatYaml, PrintsEmptyContainersAndSpecialFloats) {
 }
 
 TEST(FormatYaml, RejectsMalformedBytes) {
-  auto bytes = Encode(MakeState());
+  auto bytes = Encode(testing::MakeSampleState());
   bytes.pop_back();
   EXPECT_THROW(FormatYaml(SchemaOf<iapsim_msgs::IapState>(), bytes.data(), bytes.size()),
                std::invalid_argument);
@@ -241,7 +220,7 @@ TEST(FormatFlatten, ListsLeavesInSerializationOrder) {
 }
 
 TEST(FormatFlatten, IndexesArraysAndCountsBytes) {
-  const FlatMessage state = Flat(MakeState());
+  const FlatMessage state = Flat(testing::MakeSampleState());
   ASSERT_EQ(state.columns.size(), state.values.size());
   const auto at = [&](const std::string& column) {
     for (size_t i = 0; i < state.columns.size(); ++i) {
@@ -368,7 +347,7 @@ TEST(PoseExtract, OdometryFindsPosePose) {
 }
 
 TEST(PoseExtract, IapStateDefaultsToTheFirstBodyAndSelectsOthersByPath) {
-  const auto state = MakeState();
+  const auto state = testing::MakeSampleState();
   const auto first = Pose(state, 1);
   ASSERT_TRUE(first.has_value());
   EXPECT_EQ(first->time_ns, 1005000000);
@@ -386,7 +365,7 @@ TEST(PoseExtract, IapStateDefaultsToTheFirstBodyAndSelectsOthersByPath) {
 }
 
 TEST(PoseExtract, RejectsAPoseFieldThatIsMissingOrNotAPose) {
-  const auto state = MakeState();
+  const auto state = testing::MakeSampleState();
   const std::string missing = InvalidArgumentOf([&] { Pose(state, 1, "bodies[9].pose_W"); });
   EXPECT_NE(missing.find("'bodies[9].pose_W'"), std::string::npos) << missing;
   EXPECT_NE(missing.find("iapsim_msgs/IapState"), std::string::npos) << missing;

@@ -10,30 +10,13 @@
 #include <random>
 
 #include "bridge/message_registry.h"
+#include "bridge/testing/sample_messages.h"
 
 namespace iapsim::bridge {
 namespace {
 
-iapsim_msgs::IapState MakeState() {
-  iapsim_msgs::IapState state;
-  state.header.stamp = ros::Time(1, 5000000);
-  state.header.frame_id = "W";
-  state.step = 1005;
-  state.bodies.resize(4);
-  for (size_t i = 0; i < state.bodies.size(); ++i) {
-    state.bodies[i].name = i == 0 ? "platform" : "sub" + std::to_string(i);
-    state.bodies[i].pose_W.position.x = 0.48 * static_cast<double>(i);
-    state.bodies[i].pose_W.orientation.w = 1.0;
-    state.bodies[i].twist_B.angular.z = -0.25;
-  }
-  state.joints.resize(3);
-  state.joints[2].type = iapsim_msgs::JointState::TYPE_FIXED;
-  state.external_wrench_P.force.z = 19.62;
-  return state;
-}
-
 TEST(Codec, RoundTripsProjectState) {
-  const auto state = MakeState();
+  const auto state = testing::MakeSampleState();
   const auto bytes = Encode(state);
   iapsim_msgs::IapState decoded;
   std::string error;
@@ -72,7 +55,7 @@ TEST(Codec, EveryRegisteredTypeValidatesItsOwnEncoding) {
 }
 
 TEST(Codec, RejectsEveryTruncation) {
-  const auto bytes = Encode(MakeState());
+  const auto bytes = Encode(testing::MakeSampleState());
   iapsim_msgs::IapState decoded;
   for (size_t size = 0; size < bytes.size(); ++size) {
     std::string error;
@@ -82,7 +65,7 @@ TEST(Codec, RejectsEveryTruncation) {
 }
 
 TEST(Codec, RejectsTrailingBytes) {
-  auto bytes = Encode(MakeState());
+  auto bytes = Encode(testing::MakeSampleState());
   bytes.push_back(0);
   iapsim_msgs::IapState decoded;
   std::string error;
@@ -91,7 +74,7 @@ TEST(Codec, RejectsTrailingBytes) {
 }
 
 TEST(Codec, RejectsHugeArrayLengthWithoutAllocating) {
-  auto bytes = Encode(MakeState());
+  auto bytes = Encode(testing::MakeSampleState());
   // header: seq(4) stamp(8) frame_id(4+1) step(8), then the bodies array length
   const size_t bodies_length_offset = 4 + 8 + 4 + 1 + 8;
   const uint32_t huge = 0xFFFFFFF0u;
@@ -105,7 +88,7 @@ TEST(Codec, RejectsHugeArrayLengthWithoutAllocating) {
 // Fuzz-style: random byte strings and random corruptions of valid messages never crash the decoder.
 TEST(Codec, RandomAndCorruptedInputIsRejectedOrDecodedWithoutCrash) {
   std::mt19937_64 rng(20261121);
-  const auto valid = Encode(MakeState());
+  const auto valid = Encode(testing::MakeSampleState());
   int accepted = 0;
   for (int trial = 0; trial < 20000; ++trial) {
     std::vector<uint8_t> bytes;
@@ -144,7 +127,7 @@ class CollectingVisitor : public FieldVisitor {
 };
 
 TEST(Schema, WalksNestedFieldsByPath) {
-  const auto bytes = Encode(MakeState());
+  const auto bytes = Encode(testing::MakeSampleState());
   CollectingVisitor visitor;
   SchemaOf<iapsim_msgs::IapState>().Walk(bytes.data(), bytes.size(), visitor);
   EXPECT_EQ(std::get<std::string>(visitor.leaves.at("bodies[0].name")), "platform");

@@ -50,7 +50,11 @@ for _ in $(seq 100); do
 done
 "$iapsim" topics --run "$work/live" --listen 1 > "$work/topics.out" || fail "topics: $(cat "$work/topics.out") $(cat "$work/live.out")"
 grep -Eq "^/iap/state +iapsim_msgs/IapState +physics" "$work/topics.out" || fail "topics: $(cat "$work/topics.out")"
-timeout 10 "$iapsim" echo /iap/state --run "$work/live" -n 2 > "$work/echo.out" || fail "echo timed out"
+set +e
+timeout 10 "$iapsim" echo /iap/state --run "$work/live" -n 2 > "$work/echo.out" 2> "$work/echo.err"
+code=$?
+set -e
+[ $code -eq 0 ] || fail "echo exited $code (124: timed out): $(cat "$work/echo.err"); the run said: $(cat "$work/live.out")"
 [ "$(grep -c '^---' "$work/echo.out")" -eq 2 ] || fail "echo: $(cat "$work/echo.out")"
 grep -q "frame_id: W" "$work/echo.out" || fail "echo: $(cat "$work/echo.out")"
 

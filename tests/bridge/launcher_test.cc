@@ -226,6 +226,41 @@ TEST_F(LauncherTest, ConfigurationErrorsNameTheFileLineAndKey) {
   EXPECT_NE(missing.message.find("processes.replayer.params.bag"), std::string::npos) << missing.message;
 }
 
+TEST_F(LauncherTest, AnyStartOrderOverTcp) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(1.0));
+  const LaunchResult result =
+      Run(scenario, "run",
+          {"bus.transport=tcp", "bus.tcp_base_port=" + std::to_string(20000 + getpid() % 20000),
+           "processes.physics.params.setup_delay_s=0.4", "processes.control.params.setup_delay_s=0.2"});
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  EXPECT_EQ(Metrics(result)["processes"]["control"]["process"]["steps"], 1001);
+  EXPECT_NE(FileBytes(result.run_dir + "/scenario.resolved.yaml").find("tcp://127.0.0.1:"),
+            std::string::npos);
+}
+
+TEST_F(LauncherTest, FastModeIsCausalAndUnpaced) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
+  const LaunchResult result = Run(scenario, "run", {"mode=fast"});
+  ASSERT_EQ(result.exit_code, 0) << result.message;  // the test nodes fail on a stale command or state
+  const auto metrics = Metrics(result);
+  EXPECT_EQ(metrics["mode"], "fast");
+  EXPECT_EQ(metrics["processes"]["physics"]["process"]["commands_received"], 2001);
+}
+
+TEST_F(LauncherTest, RealtimeModeFollowsTheWallClockAndCountsLateAcks) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(1.0));
+  // a sim second in 0.5 s of wall time, at a 100 Hz clock every process keeps up
+  const LaunchResult result =
+      Run(scenario, "run",
+          {"mode=realtime", "clock.realtime_factor=2.0", "clock.step_s=0.01", "processes.uwb.rate_hz=50"});
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  const auto metrics = Metrics(result);
+  EXPECT_NEAR(metrics["real_time_factor"].get<double>(), 2.0, 0.3);
+  ASSERT_TRUE(metrics["processes"]["physics"].contains("late_acks"));
+  EXPECT_TRUE(metrics["processes"]["physics"]["late_acks"].contains("control"));
+  EXPECT_EQ(metrics["processes"]["control"]["process"]["steps"], 101);
+}
+
 TEST_F(LauncherTest, ReplayPlaysRecordedTopicsReStampedOntoSimTime) {
   const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
   const LaunchResult recorded = Run(scenario, "recorded");

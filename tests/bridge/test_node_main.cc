@@ -6,7 +6,8 @@
 //   behavior: controller  publishes /<vehicle>/cmd (IapCommand) computed from the state of the same step
 //   behavior: sensor      publishes /<vehicle>/uwb (UwbRanges) with seeded Gaussian noise
 //
-// Each checks that it sees exactly the step it expects (none skipped, none repeated) and fails otherwise.
+// In lockstep and fast mode each checks that it sees exactly the step it expects (none skipped, none
+// repeated, the command of the previous step applied) and fails otherwise.
 // kill_at_step / hang_at_step make it die by SIGKILL or stop responding, for supervision tests.
 
 #include <iapsim_msgs/IapCommand.h>
@@ -44,9 +45,12 @@ class TestNode : public Process {
     params.OptionalInRange("command_period_steps", &command_period_steps_, uint64_t{0}, uint64_t{1000000});
     params.Optional("kill_at_step", &kill_at_step_);
     params.Optional("hang_at_step", &hang_at_step_);
+    params.OptionalInRange("setup_delay_s", &setup_delay_s_, 0.0, 10.0);
   }
 
   void Setup(Bus& bus) override {
+    // a late starter: the handshake must make start order irrelevant
+    std::this_thread::sleep_for(std::chrono::duration<double>(setup_delay_s_));
     bus_ = &bus;
     if (behavior_ == "clock") {
       bus.Subscribe<iapsim_msgs::IapCommand>("/" + vehicle_ + "/cmd",
@@ -78,7 +82,7 @@ class TestNode : public Process {
     ++steps_;
     if (behavior_ == "clock") return StepClock(step);
     // lockstep: the state of this very step arrived before its tick
-    if (mode_ == ClockMode::kLockstep && (!have_state_ || state_.step != step.step)) {
+    if (Causal() && (!have_state_ || state_.step != step.step)) {
       Fail("at step " + std::to_string(step.step) + " the latest state is step " +
            (have_state_ ? std::to_string(state_.step) : std::string("none")));
     }
@@ -92,11 +96,14 @@ class TestNode : public Process {
   }
 
  private:
+  // lockstep and fast both wait for participants, so nothing a participant sends arrives late
+  bool Causal() const { return mode_ != ClockMode::kRealtime; }
+
   [[noreturn]] void Fail(const std::string& what) { throw std::runtime_error(behavior_ + ": " + what); }
 
   void StepClock(const StepInfo& step) {
     // the command of the controller's last step before k must have arrived before step k (lockstep causality)
-    if (mode_ == ClockMode::kLockstep && command_period_steps_ > 0 && step.step > 0) {
+    if (Causal() && command_period_steps_ > 0 && step.step > 0) {
       const uint64_t expected = (step.step - 1) / command_period_steps_ * command_period_steps_;
       if (commands_received_ == 0 || command_.step != expected) {
         Fail("at step " + std::to_string(step.step) + " the latest command is for step " +
@@ -161,6 +168,7 @@ class TestNode : public Process {
   uint64_t command_period_steps_ = 1;  // clock: controller period in steps (0: no controller)
   int64_t kill_at_step_ = -1;
   int64_t hang_at_step_ = -1;
+  double setup_delay_s_ = 0.0;
   Bus* bus_ = nullptr;
   iapsim_msgs::IapState state_;
   bool have_state_ = false;
