@@ -107,7 +107,7 @@ TEST(Bus, RefusesTypeMismatchWithAClearError) {
 // Best effort: a subscriber that does not keep up loses messages (and counts them); a fast one loses none.
 TEST(Bus, ASlowSubscriberLosesMessagesAloneAndCountsThem) {
   auto options = Options("fast", {"slow", "quick"});
-  options.send_hwm = 1000;  // room for all 5000 only with the quick subscriber's 10000-message receive queue
+  options.send_hwm = 1000;  // with the slow subscriber's 10-message receive queue: ~1010 fit
   options.drop_policy = DropPolicy::kDropNewest;
   Bus publisher(options);
   auto slow_options = Options("slow", {"fast"});
@@ -130,13 +130,12 @@ TEST(Bus, ASlowSubscriberLosesMessagesAloneAndCountsThem) {
   }
   std_msgs::String text;
   text.data.assign(1000, 'x');
-  // the quick subscriber reads while the publisher sends; the slow one does not read at all
-  for (int i = 0; i < 5000; ++i) {
+  // the quick subscriber takes each message before the next is sent; the slow one does not read at all
+  for (uint64_t i = 0; i < 5000; ++i) {
     publisher.Publish("/s", text);
-    quick.Spin(std::chrono::microseconds(0));
+    deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    while (quick_received <= i && std::chrono::steady_clock::now() < deadline) quick.Spin(milliseconds(10));
   }
-  deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
-  while (quick_received < 5000 && std::chrono::steady_clock::now() < deadline) quick.Spin(milliseconds(10));
   deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
   while (std::chrono::steady_clock::now() < deadline) slow.Spin(milliseconds(10));
   // one more once there is room again: every miss before it shows as a gap
