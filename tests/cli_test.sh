@@ -31,6 +31,12 @@ grep -Eq "^/iap/state +iapsim_msgs/IapState +1001 +1000.00" "$work/info.out" || 
 head -1 "$work/uwb.csv" | grep -q "^time_s,header.seq,header.stamp" || fail "csv header: $(head -1 "$work/uwb.csv")"
 [ "$(wc -l < "$work/uwb.csv")" -eq 202 ] || fail "csv has $(wc -l < "$work/uwb.csv") lines"
 
+# replay: the recorded UWB ranges played into a new run under another name
+"$iapsim" replay "$work/run/run.bag" --scenario "$src/configs/scenarios/bus_demo.yaml" --topics /iap/uwb \
+  --map /iap/uwb:=/old/uwb --duration 1 --out "$work/replayed" > /dev/null
+"$iapsim" info "$work/replayed/run.bag" > "$work/replayed.out"
+grep -Eq "^/old/uwb +iapsim_msgs/UwbRanges +201 " "$work/replayed.out" || fail "replay: $(cat "$work/replayed.out")"
+
 # bad configuration: exit code 2 and file:line in the message
 sed 's/^duration_s: 5.0/duration_s: soon/' "$src/configs/scenarios/bus_demo.yaml" > "$work/bad.yaml"
 set +e
