@@ -11,7 +11,7 @@ trap 'rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
 # every subcommand answers --help
-for cmd in run replay info export topics echo bench; do
+for cmd in run replay info export topics echo urdf bench; do
   "$iapsim" "$cmd" --help > /dev/null || fail "$cmd --help"
 done
 
@@ -36,6 +36,17 @@ head -1 "$work/uwb.csv" | grep -q "^time_s,header.seq,header.stamp" || fail "csv
   --map /iap/uwb:=/old/uwb --duration 1 --out "$work/replayed" > /dev/null
 "$iapsim" info "$work/replayed/run.bag" > "$work/replayed.out"
 grep -Eq "^/old/uwb +iapsim_msgs/UwbRanges +201 " "$work/replayed.out" || fail "replay: $(cat "$work/replayed.out")"
+
+# vehicle description to URDF (type="spherical" joints, one per sub-aircraft)
+"$iapsim" urdf "$src/configs/vehicles/three_star.yaml" -o "$work/three_star.urdf" 2> /dev/null
+[ "$(grep -c '<joint name="sub[0-9]_joint" type="spherical">' "$work/three_star.urdf")" -eq 3 ] || fail "urdf: $(cat "$work/three_star.urdf")"
+printf 'name: x\nplatform: {mass_kg: -1}\n' > "$work/bad_vehicle.yaml"
+set +e
+"$iapsim" urdf "$work/bad_vehicle.yaml" > /dev/null 2> "$work/bad_vehicle.err"
+code=$?
+set -e
+[ $code -eq 2 ] || fail "bad vehicle exited $code"
+grep -q "bad_vehicle.yaml:2:" "$work/bad_vehicle.err" || fail "bad vehicle: $(cat "$work/bad_vehicle.err")"
 
 # bad configuration: exit code 2 and file:line in the message
 sed 's/^duration_s: 5.0/duration_s: soon/' "$src/configs/scenarios/bus_demo.yaml" > "$work/bad.yaml"

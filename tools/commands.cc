@@ -17,6 +17,8 @@
 #include "bridge/message_format.h"
 #include "bridge/message_registry.h"
 #include "bridge/scenario.h"
+#include "physics/urdf.h"
+#include "physics/vehicle.h"
 
 namespace iapsim::tools {
 namespace {
@@ -225,6 +227,26 @@ int Echo(const LiveArgs& args) {
   action.sa_handler = OnInterrupt;
   sigaction(SIGINT, &action, nullptr);
   while (!interrupted && (args.count < 0 || printed < args.count)) bus->Spin(std::chrono::milliseconds(50));
+  return 0;
+}
+
+int Urdf(const std::string& vehicle_path, const std::string& output) {
+  physics::Vehicle vehicle;
+  try {
+    vehicle = physics::LoadVehicle(vehicle_path);
+  } catch (const ConfigError& e) {
+    std::cerr << "iapsim: invalid vehicle: " << e.what() << std::endl;
+    return 2;
+  }
+  const std::string urdf = physics::GenerateUrdf(vehicle);
+  if (output.empty()) {
+    std::cout << urdf;
+    return 0;
+  }
+  std::ofstream out(output);
+  if (!(out << urdf)) throw std::runtime_error("cannot write '" + output + "'");
+  std::fprintf(stderr, "wrote %s (%zu sub-aircraft, %.3f kg)\n", output.c_str(), vehicle.sub_aircraft.size(),
+               vehicle.TotalMass_kg());
   return 0;
 }
 

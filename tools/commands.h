@@ -45,6 +45,9 @@ struct LiveArgs {
 int Topics(const LiveArgs& args);
 int Echo(const LiveArgs& args);
 
+/// Writes the URDF of a vehicle YAML to `output` (stdout when empty). Bad YAML: exit 2.
+int Urdf(const std::string& vehicle, const std::string& output);
+
 /// Bus latency (ipc/tcp, state-sized and image-sized messages) and lockstep round trips between two
 /// processes.
 int BenchBus(const std::string& json_path);

@@ -60,6 +60,12 @@ int main(int argc, char** argv) {
   echo_cmd->add_option("--run", echo.run_dir, "run directory of the running graph (default runs/latest)");
   echo_cmd->add_option("-n,--count", echo.count, "stop after this many messages (default: until Ctrl-C)");
 
+  std::string urdf_vehicle, urdf_output;
+  auto* urdf_cmd =
+      app.add_subcommand("urdf", "write the URDF of a vehicle description (configs/vehicles/*.yaml)");
+  urdf_cmd->add_option("vehicle", urdf_vehicle, "vehicle YAML")->required()->check(CLI::ExistingFile);
+  urdf_cmd->add_option("-o,--output", urdf_output, "output file (default: standard output)");
+
   std::string bench_what = "all";
   std::string bench_json;
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
@@ -74,6 +80,7 @@ int main(int argc, char** argv) {
     if (*export_cmd) return Export(exp);
     if (*topics_cmd) return Topics(topics);
     if (*echo_cmd) return Echo(echo);
+    if (*urdf_cmd) return Urdf(urdf_vehicle, urdf_output);
     if (*bench_cmd) return BenchBus(bench_json);
   } catch (const std::exception& e) {
     std::cerr << "iapsim: " << e.what() << std::endl;

@@ -1,0 +1,244 @@
+#include "physics/urdf.h"
+
+#include <tinyxml2.h>
+#include <urdf_parser/urdf_parser.h>
+
+#include <charconv>
+#include <fstream>
+#include <queue>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+namespace iapsim::physics {
+namespace {
+
+// the shortest text that reads back as exactly the same double
+std::string Num(double v) {
+  char text[32];
+  const auto result = std::to_chars(text, text + sizeof(text), v);
+  return std::string(text, result.ptr);
+}
+
+std::string Vec(const Eigen::Vector3d& v) { return Num(v.x()) + " " + Num(v.y()) + " " + Num(v.z()); }
+
+void AddOrigin(tinyxml2::XMLElement* parent, const Eigen::Vector3d& xyz, const Eigen::Vector3d& rpy) {
+  auto* origin = parent->InsertNewChildElement("origin");
+  origin->SetAttribute("xyz", Vec(xyz).c_str());
+  origin->SetAttribute("rpy", Vec(rpy).c_str());
+}
+
+void AddGeometry(tinyxml2::XMLElement* parent, const Shape& shape) {
+  auto* geometry = parent->InsertNewChildElement("geometry");
+  switch (shape.kind) {
+    case Shape::Kind::kBox:
+      geometry->InsertNewChildElement("box")->SetAttribute("size", Vec(shape.box_size_m).c_str());
+      break;
+    case Shape::Kind::kCylinder: {
+      auto* cylinder = geometry->InsertNewChildElement("cylinder");
+      cylinder->SetAttribute("radius", Num(shape.radius_m).c_str());
+      cylinder->SetAttribute("length", Num(shape.length_m).c_str());
+      break;
+    }
+    case Shape::Kind::kSphere:
+      geometry->InsertNewChildElement("sphere")->SetAttribute("radius", Num(shape.radius_m).c_str());
+      break;
+  }
+}
+
+void AddLink(tinyxml2::XMLElement* robot, const std::string& name, const MassProperties& mass,
+             const std::vector<Shape>& shapes, const std::string& mesh) {
+  auto* link = robot->InsertNewChildElement("link");
+  link->SetAttribute("name", name.c_str());
+  auto* inertial = link->InsertNewChildElement("inertial");
+  AddOrigin(inertial, mass.com_B_m, Eigen::Vector3d::Zero());
+  inertial->InsertNewChildElement("mass")->SetAttribute("value", Num(mass.mass_kg).c_str());
+  auto* inertia = inertial->InsertNewChildElement("inertia");
+  const Eigen::Matrix3d& I = mass.inertia_B_kgm2;
+  inertia->SetAttribute("ixx", Num(I(0, 0)).c_str());
+  inertia->SetAttribute("ixy", Num(I(0, 1)).c_str());
+  inertia->SetAttribute("ixz", Num(I(0, 2)).c_str());
+  inertia->SetAttribute("iyy", Num(I(1, 1)).c_str());
+  inertia->SetAttribute("iyz", Num(I(1, 2)).c_str());
+  inertia->SetAttribute("izz", Num(I(2, 2)).c_str());
+  for (const auto& shape : shapes) {
+    auto* collision = link->InsertNewChildElement("collision");
+    AddOrigin(collision, shape.origin_B_m, shape.rpy_B_rad);
+    AddGeometry(collision, shape);
+  }
+  if (!mesh.empty()) {
+    auto* visual = link->InsertNewChildElement("visual");
+    AddOrigin(visual, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+    visual->InsertNewChildElement("geometry")
+        ->InsertNewChildElement("mesh")
+        ->SetAttribute("filename", mesh.c_str());
+  }
+}
+
+void AddJoint(tinyxml2::XMLElement* robot, const std::string& name, const char* type,
+              const std::string& parent, const std::string& child, const Eigen::Vector3d& xyz,
+              const Eigen::Vector3d& rpy) {
+  auto* joint = robot->InsertNewChildElement("joint");
+  joint->SetAttribute("name", name.c_str());
+  joint->SetAttribute("type", type);
+  joint->InsertNewChildElement("parent")->SetAttribute("link", parent.c_str());
+  joint->InsertNewChildElement("child")->SetAttribute("link", child.c_str());
+  AddOrigin(joint, xyz, rpy);
+}
+
+[[noreturn]] void Fail(const std::string& source, const std::string& what) {
+  throw std::invalid_argument(source + ": " + what);
+}
+
+Eigen::Vector3d ToEigen(const urdf::Vector3& v) { return Eigen::Vector3d(v.x, v.y, v.z); }
+
+Eigen::Vector3d RpyOf(const urdf::Rotation& rotation) {
+  double roll, pitch, yaw;
+  rotation.getRPY(roll, pitch, yaw);
+  return Eigen::Vector3d(roll, pitch, yaw);
+}
+
+LinkDescription ConvertLink(const urdf::Link& link, const std::string& source) {
+  LinkDescription out;
+  out.name = link.name;
+  if (!link.inertial || link.inertial->mass <= 0.0) {
+    Fail(source, "link '" + link.name + "' needs an <inertial> with a positive mass");
+  }
+  const auto& in = *link.inertial;
+  if (RpyOf(in.origin.rotation).norm() > 1e-12) {
+    Fail(source, "link '" + link.name +
+                     "': a rotated <inertial> origin is not supported; give the inertia in link axes");
+  }
+  out.mass.mass_kg = in.mass;
+  out.mass.com_B_m = ToEigen(in.origin.position);
+  out.mass.inertia_B_kgm2 << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+  for (const auto& collision : link.collision_array) {
+    if (!collision || !collision->geometry) continue;
+    Shape shape;
+    shape.origin_B_m = ToEigen(collision->origin.position);
+    shape.rpy_B_rad = RpyOf(collision->origin.rotation);
+    switch (collision->geometry->type) {
+      case urdf::Geometry::BOX: {
+        const auto& box = static_cast<const urdf::Box&>(*collision->geometry);
+        shape.kind = Shape::Kind::kBox;
+        shape.box_size_m = ToEigen(box.dim);
+        break;
+      }
+      case urdf::Geometry::CYLINDER: {
+        const auto& cylinder = static_cast<const urdf::Cylinder&>(*collision->geometry);
+        shape.kind = Shape::Kind::kCylinder;
+        shape.radius_m = cylinder.radius;
+        shape.length_m = cylinder.length;
+        break;
+      }
+      case urdf::Geometry::SPHERE:
+        shape.kind = Shape::Kind::kSphere;
+        shape.radius_m = static_cast<const urdf::Sphere&>(*collision->geometry).radius;
+        break;
+      default:
+        Fail(source, "link '" + link.name +
+                         "': collision meshes are not supported in URDF (use box, cylinder, sphere)");
+    }
+    out.collision.push_back(shape);
+  }
+  if (link.visual && link.visual->geometry && link.visual->geometry->type == urdf::Geometry::MESH) {
+    out.mesh = static_cast<const urdf::Mesh&>(*link.visual->geometry).filename;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string GenerateUrdf(const Vehicle& vehicle) {
+  tinyxml2::XMLDocument doc;
+  doc.InsertEndChild(doc.NewDeclaration());
+  doc.InsertEndChild(doc.NewComment((" generated by `iapsim urdf " + vehicle.source_file +
+                                     "`; type=\"spherical\" follows RaiSim's convention ")
+                                        .c_str()));
+  auto* robot = doc.NewElement("robot");
+  doc.InsertEndChild(robot);
+  robot->SetAttribute("name", vehicle.name.c_str());
+  AddLink(robot, "platform", vehicle.platform, vehicle.platform_collision, vehicle.platform_mesh);
+  for (const auto& tool : vehicle.tools) {
+    AddLink(robot, tool.name, tool.mass, tool.collision, tool.mesh);
+    AddJoint(robot, tool.name + "_mount", "fixed", "platform", tool.name, tool.origin_P_m, tool.rpy_P_rad);
+  }
+  for (const auto& sub : vehicle.sub_aircraft) {
+    AddLink(robot, sub.name, sub.mass, sub.collision, sub.mesh);
+    AddJoint(robot, sub.name + "_joint", sub.joint == JointType::kSpherical ? "spherical" : "fixed",
+             "platform", sub.name, sub.joint_P_m, Eigen::Vector3d(0.0, 0.0, sub.initial_yaw_rad));
+  }
+  tinyxml2::XMLPrinter printer;
+  doc.Print(&printer);
+  return printer.CStr();
+}
+
+MultibodyDescription ParseUrdf(const std::string& xml, const std::string& source) {
+  // pre-parse: spherical -> floating, remembering which joints were spherical
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS) {
+    Fail(source, std::string("not well-formed XML: ") + doc.ErrorStr());
+  }
+  auto* robot = doc.FirstChildElement("robot");
+  if (!robot) Fail(source, "no <robot> element");
+  std::set<std::string> spherical;
+  for (auto* joint = robot->FirstChildElement("joint"); joint; joint = joint->NextSiblingElement("joint")) {
+    const char* name = joint->Attribute("name");
+    const char* type = joint->Attribute("type");
+    if (!name || !type)
+      Fail(source, "line " + std::to_string(joint->GetLineNum()) + ": <joint> needs name and type");
+    if (std::string(type) == "spherical") {
+      spherical.insert(name);
+      joint->SetAttribute("type", "floating");
+    } else if (std::string(type) == "floating") {
+      Fail(source, "line " + std::to_string(joint->GetLineNum()) + ": joint '" + name +
+                       "' is floating; a vehicle has one free base and spherical or fixed joints");
+    }
+  }
+  tinyxml2::XMLPrinter printer;
+  doc.Print(&printer);
+  const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(printer.CStr());
+  if (!model) Fail(source, "urdfdom rejected the URDF (its reason is printed above)");
+
+  MultibodyDescription out;
+  out.name = model->getName();
+  const urdf::LinkConstSharedPtr root = model->getRoot();
+  out.links.push_back(ConvertLink(*root, source));
+  // breadth-first: a joint's parent is always converted before its child
+  std::queue<std::pair<urdf::LinkConstSharedPtr, int>> pending;
+  pending.push({root, 0});
+  while (!pending.empty()) {
+    const auto [link, index] = pending.front();
+    pending.pop();
+    for (const auto& joint : link->child_joints) {
+      JointDescription j;
+      j.name = joint->name;
+      if (joint->type == urdf::Joint::FLOATING && spherical.count(joint->name)) {
+        j.type = JointType::kSpherical;
+      } else if (joint->type == urdf::Joint::FIXED) {
+        j.type = JointType::kFixed;
+      } else {
+        Fail(source, "joint '" + joint->name + "': iapsim simulates spherical and fixed joints only");
+      }
+      j.parent = index;
+      j.child = static_cast<int>(out.links.size());
+      j.origin_parent_m = ToEigen(joint->parent_to_joint_origin_transform.position);
+      j.rpy_parent_rad = RpyOf(joint->parent_to_joint_origin_transform.rotation);
+      const urdf::LinkConstSharedPtr child = model->getLink(joint->child_link_name);
+      out.links.push_back(ConvertLink(*child, source));
+      out.joints.push_back(j);
+      pending.push({child, j.child});
+    }
+  }
+  return out;
+}
+
+MultibodyDescription LoadUrdfFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument(path + ": cannot open the file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseUrdf(text.str(), path);
+}
+
+}  // namespace iapsim::physics

@@ -1,0 +1,48 @@
+#pragma once
+// URDF for IAPs: written from a Vehicle (`iapsim urdf`), and read back into a plain multibody description
+// that the physics builds from.
+//
+// URDF has no spherical joint and urdfdom rejects unknown joint types. iapsim accepts type="spherical"
+// (RaiSim's convention, which the seed paper's engine used) through one pre-parse step: the XML is read with
+// tinyxml2, every spherical joint is rewritten to "floating" and remembered, then urdfdom parses the result.
+// Floating joints of the original file remain an error: a vehicle has one floating base.
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "physics/vehicle.h"
+
+namespace iapsim::physics {
+
+std::string GenerateUrdf(const Vehicle& vehicle);
+
+struct LinkDescription {
+  std::string name;
+  MassProperties mass;  // in the link frame
+  std::vector<Shape> collision;
+  std::string mesh;
+};
+
+struct JointDescription {
+  std::string name;
+  JointType type = JointType::kSpherical;
+  int parent = 0;                                             // index into links
+  int child = 0;                                              // index into links
+  Eigen::Vector3d origin_parent_m = Eigen::Vector3d::Zero();  // child frame origin in the parent frame
+  Eigen::Vector3d rpy_parent_rad = Eigen::Vector3d::Zero();   // child frame orientation in the parent frame
+};
+
+struct MultibodyDescription {
+  std::string name;
+  std::vector<LinkDescription> links;    // links[0] is the root (the platform, a free body)
+  std::vector<JointDescription> joints;  // in tree order: a joint's parent comes before its child
+};
+
+/// Parses URDF text; `source` (a file name) is used in error messages. Throws std::invalid_argument.
+MultibodyDescription ParseUrdf(const std::string& xml, const std::string& source);
+
+/// Reads and parses a URDF file. Throws std::invalid_argument naming the file.
+MultibodyDescription LoadUrdfFile(const std::string& path);
+
+}  // namespace iapsim::physics

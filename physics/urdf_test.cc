@@ -1,0 +1,193 @@
+#include "physics/urdf.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "bridge/config.h"
+#include "physics/vehicle.h"
+
+namespace iapsim::physics {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string VehiclePath(const std::string& name) {
+  return std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/" + name + ".yaml";
+}
+
+std::string WriteTemp(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + "/" + name + "-" + std::to_string(getpid()) + ".yaml";
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(Vehicle, EveryShippedConfigurationLoadsAndRoundTripsThroughUrdf) {
+  for (const auto& entry : fs::directory_iterator(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles")) {
+    SCOPED_TRACE(entry.path().string());
+    const Vehicle vehicle = LoadVehicle(entry.path().string());
+    const MultibodyDescription model = ParseUrdf(GenerateUrdf(vehicle), vehicle.name + ".urdf");
+    ASSERT_EQ(model.links.size(), 1 + vehicle.tools.size() + vehicle.sub_aircraft.size());
+    EXPECT_EQ(model.links[0].name, "platform");
+    double total = 0.0;
+    for (const auto& link : model.links) total += link.mass.mass_kg;
+    EXPECT_DOUBLE_EQ(total, vehicle.TotalMass_kg());
+    for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) {
+      const SubAircraft& sub = vehicle.sub_aircraft[i];
+      const JointDescription& joint = model.joints[vehicle.tools.size() + i];
+      EXPECT_EQ(model.links[joint.child].name, sub.name);
+      EXPECT_EQ(joint.parent, 0);
+      EXPECT_EQ(joint.type, sub.joint);
+      EXPECT_EQ(joint.origin_parent_m, sub.joint_P_m);  // exact: numbers are written with 17 digits
+      EXPECT_NEAR(std::remainder(joint.rpy_parent_rad.z() - sub.initial_yaw_rad, 2 * M_PI), 0.0, 1e-12);
+      EXPECT_EQ(model.links[joint.child].mass.inertia_B_kgm2, sub.mass.inertia_B_kgm2);
+    }
+  }
+}
+
+TEST(Vehicle, ThreeStarMatchesTableI) {
+  const Vehicle v = LoadVehicle(VehiclePath("three_star"));
+  EXPECT_DOUBLE_EQ(v.platform.mass_kg, 1.1);
+  ASSERT_EQ(v.sub_aircraft.size(), 3u);
+  for (const auto& sub : v.sub_aircraft) {
+    EXPECT_DOUBLE_EQ(sub.mass.mass_kg, 1.6);
+    EXPECT_NEAR(sub.joint_P_m.head<2>().norm(), 0.48, 1e-12);  // d_h
+    EXPECT_DOUBLE_EQ(sub.joint_P_m.z(), 0.07);                 // d_v
+    EXPECT_EQ(sub.joint, JointType::kSpherical);
+  }
+  EXPECT_DOUBLE_EQ(v.TotalMass_kg(), 5.9);
+  // equilateral: the joints' centroid is the platform origin
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& sub : v.sub_aircraft) centroid += sub.joint_P_m / 3.0;
+  EXPECT_LT(centroid.head<2>().norm(), 1e-12);
+}
+
+TEST(Vehicle, AnyNumberOfSubAircraftFromYamlAlone) {
+  std::string text =
+      "name: hexa\n"
+      "platform: {mass_kg: 2.0, inertia_kgm2: [0.05, 0.05, 0.1], collision: [{box: [0.3, 0.3, 0.05]}]}\n"
+      "sub_aircraft_defaults: {mass_kg: 1.6, inertia_kgm2: [0.0134, 0.0134, 0.0248]}\n"
+      "sub_aircraft:\n";
+  for (int i = 0; i < 6; ++i) {
+    const double a = i * M_PI / 3.0;
+    text += "  - {joint_m: [" + std::to_string(0.6 * std::cos(a)) + ", " + std::to_string(0.6 * std::sin(a)) +
+            ", 0.05]}\n";
+  }
+  const Vehicle v = LoadVehicle(WriteTemp("hexa", text));
+  ASSERT_EQ(v.sub_aircraft.size(), 6u);
+  EXPECT_EQ(v.sub_aircraft[5].name, "sub6");
+  EXPECT_EQ(ParseUrdf(GenerateUrdf(v), "hexa").joints.size(), 6u);
+}
+
+struct BadVehicle {
+  std::string what;
+  std::string text;
+  std::string expect;
+};
+
+TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
+  const std::string good_platform = "platform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04]}\n";
+  const std::string subs =
+      "sub_aircraft_defaults: {mass_kg: 1.6, inertia_kgm2: [0.0134, 0.0134, 0.0248]}\n"
+      "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n";
+  const std::vector<BadVehicle> cases = {
+      {"typo", "name: x\n" + good_platform + subs + "extra_key: 1\n", "extra_key: unknown key"},
+      {"triangle", "name: x\nplatform: {mass_kg: 1, inertia_kgm2: [0.01, 0.01, 0.05]}\n" + subs,
+       "platform.inertia_kgm2: violates the triangle inequality"},
+      {"negative", "name: x\nplatform: {mass_kg: 1, inertia_kgm2: [-0.01, 0.01, 0.01]}\n" + subs,
+       "not positive definite"},
+      {"one sub",
+       "name: x\n" + good_platform +
+           "sub_aircraft_defaults: {mass_kg: 1.6, inertia_kgm2: [0.01, 0.01, 0.02]}\n"
+           "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n",
+       "at least two sub-aircraft"},
+      {"no joint",
+       "name: x\n" + good_platform +
+           "sub_aircraft_defaults: {mass_kg: 1.6, inertia_kgm2: [0.01, 0.01, 0.02]}\n"
+           "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {yaw_deg: 5}\n",
+       "sub_aircraft[1].joint_m: is required"},
+      {"shape",
+       "name: x\nplatform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04], collision: [{cone: 1}]}\n" + subs,
+       "a shape is exactly one of"},
+      {"vector",
+       "name: x\n" + good_platform +
+           "sub_aircraft_defaults: {mass_kg: 1.6, inertia_kgm2: [0.01, 0.01, 0.02]}\n"
+           "sub_aircraft:\n  - {joint_m: [0.5, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
+       "expected 3 numbers, got 2"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.what);
+    const std::string path = WriteTemp("bad", c.text);
+    try {
+      LoadVehicle(path);
+      ADD_FAILURE() << "accepted";
+    } catch (const bridge::ConfigError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(path + ":"), std::string::npos) << what;
+      EXPECT_NE(what.find(c.expect), std::string::npos) << what;
+    }
+  }
+}
+
+constexpr char kHandWritten[] = R"(<?xml version="1.0"?>
+<robot name="pair">
+  <link name="base">
+    <inertial><origin xyz="0 0 0.01" rpy="0 0 0"/><mass value="1.0"/>
+      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.02"/></inertial>
+    <collision><origin xyz="0 0 0" rpy="0 0 0"/><geometry><cylinder radius="0.1" length="0.05"/></geometry></collision>
+  </link>
+  <link name="arm">
+    <inertial><mass value="0.5"/><inertia ixx="0.001" ixy="0" ixz="0" iyy="0.001" iyz="0" izz="0.001"/></inertial>
+  </link>
+  <joint name="ball" type="spherical">
+    <parent link="base"/><child link="arm"/><origin xyz="0.3 0 0" rpy="0 0 0.5"/>
+  </joint>
+</robot>
+)";
+
+TEST(Urdf, AcceptsSphericalJointsThroughThePreParse) {
+  const MultibodyDescription model = ParseUrdf(kHandWritten, "pair.urdf");
+  ASSERT_EQ(model.links.size(), 2u);
+  ASSERT_EQ(model.joints.size(), 1u);
+  EXPECT_EQ(model.joints[0].type, JointType::kSpherical);
+  EXPECT_EQ(model.joints[0].origin_parent_m, Eigen::Vector3d(0.3, 0, 0));
+  EXPECT_NEAR(model.joints[0].rpy_parent_rad.z(), 0.5, 1e-12);
+  EXPECT_EQ(model.links[0].mass.com_B_m, Eigen::Vector3d(0, 0, 0.01));
+  ASSERT_EQ(model.links[0].collision.size(), 1u);
+  EXPECT_EQ(model.links[0].collision[0].kind, Shape::Kind::kCylinder);
+}
+
+std::string Replace(std::string text, const std::string& from, const std::string& to) {
+  return text.replace(text.find(from), from.size(), to);
+}
+
+TEST(Urdf, RejectsWhatItCannotSimulateNamingTheFile) {
+  const std::string base = kHandWritten;
+  // what each broken document below must be rejected with
+  const std::vector<std::string> expected = {"not well-formed", "floating", "spherical and fixed joints only",
+                                             "positive mass"};
+  const std::vector<std::string> documents = {
+      base.substr(0, base.find("<link name=\"arm\">")),  // cut short
+      Replace(base, "type=\"spherical\"", "type=\"floating\""),
+      Replace(Replace(base, "type=\"spherical\"", "type=\"revolute\""), "</joint>",
+              "<axis xyz=\"0 0 1\"/><limit lower=\"0\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint>"),
+      Replace(base, "<mass value=\"0.5\"/>", "<mass value=\"0\"/>"),
+  };
+  for (size_t i = 0; i < expected.size(); ++i) {
+    SCOPED_TRACE(expected[i]);
+    try {
+      ParseUrdf(documents[i], "bad.urdf");
+      ADD_FAILURE() << "accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.urdf"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(expected[i]), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(LoadUrdfFile("/no/such.urdf"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace iapsim::physics

@@ -1,0 +1,203 @@
+#include "physics/vehicle.h"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
+#include "bridge/config.h"
+
+namespace iapsim::physics {
+namespace {
+
+using bridge::YamlMap;
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+std::vector<double> ReadNumbers(YamlMap& map, const std::string& key, const std::vector<size_t>& sizes) {
+  const YAML::Node node = map.Raw(key);
+  std::string expected;
+  for (const size_t n : sizes) expected += (expected.empty() ? "" : " or ") + std::to_string(n);
+  if (!node.IsSequence()) map.Fail(key, "expected a list of " + expected + " numbers");
+  std::vector<double> values;
+  for (const auto& item : node) {
+    double v;
+    if (!item.IsScalar() || !YAML::convert<double>::decode(item, v) || !std::isfinite(v)) {
+      map.Fail(key, "expected a list of " + expected + " numbers");
+    }
+    values.push_back(v);
+  }
+  bool size_ok = false;
+  for (const size_t n : sizes) size_ok = size_ok || values.size() == n;
+  if (!size_ok) map.Fail(key, "expected " + expected + " numbers, got " + std::to_string(values.size()));
+  return values;
+}
+
+void OptionalVector3(YamlMap& map, const std::string& key, Eigen::Vector3d* value, double scale = 1.0) {
+  if (!map.Has(key)) return;
+  const auto v = ReadNumbers(map, key, {3});
+  *value = Eigen::Vector3d(v[0], v[1], v[2]) * scale;
+}
+
+// [xx, yy, zz] or [xx, yy, zz, xy, xz, yz]; must be a physical inertia (positive definite, triangle rule)
+void OptionalInertia(YamlMap& map, const std::string& key, Eigen::Matrix3d* inertia) {
+  if (!map.Has(key)) return;
+  const auto v = ReadNumbers(map, key, {3, 6});
+  Eigen::Matrix3d I = Eigen::Vector3d(v[0], v[1], v[2]).asDiagonal();
+  if (v.size() == 6) {
+    I(0, 1) = I(1, 0) = v[3];
+    I(0, 2) = I(2, 0) = v[4];
+    I(1, 2) = I(2, 1) = v[5];
+  }
+  const Eigen::Vector3d principal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I).eigenvalues();
+  if (principal.minCoeff() <= 0.0) map.Fail(key, "is not positive definite");
+  // any rigid body: each principal moment is at most the sum of the other two
+  const double slack = 1e-9 * principal.sum();
+  if (principal(0) + principal(1) < principal(2) - slack) {
+    map.Fail(key, "violates the triangle inequality of principal moments (no rigid body has it)");
+  }
+  *inertia = I;
+}
+
+void ReadMass(YamlMap& map, MassProperties* mass) {
+  map.OptionalInRange("mass_kg", &mass->mass_kg, 0.0, 1e4);
+  OptionalInertia(map, "inertia_kgm2", &mass->inertia_B_kgm2);
+  OptionalVector3(map, "com_m", &mass->com_B_m);
+}
+
+void CheckMass(YamlMap& map, const MassProperties& mass, const std::string& what) {
+  if (mass.mass_kg <= 0.0) map.Fail("mass_kg", what + " needs a positive mass");
+  if (mass.inertia_B_kgm2.isZero()) map.Fail("inertia_kgm2", what + " needs an inertia");
+}
+
+Shape ReadShape(YamlMap& map) {
+  Shape shape;
+  int kinds = 0;
+  if (map.Has("box")) {
+    const auto v = ReadNumbers(map, "box", {3});
+    shape.kind = Shape::Kind::kBox;
+    shape.box_size_m = Eigen::Vector3d(v[0], v[1], v[2]);
+    if (shape.box_size_m.minCoeff() <= 0.0) map.Fail("box", "sizes must be positive");
+    ++kinds;
+  }
+  if (map.Has("cylinder")) {
+    YamlMap cylinder = map.Map("cylinder");
+    shape.kind = Shape::Kind::kCylinder;
+    cylinder.Required("radius_m", &shape.radius_m);
+    cylinder.Required("length_m", &shape.length_m);
+    if (shape.radius_m <= 0.0 || shape.length_m <= 0.0)
+      map.Fail("cylinder", "radius_m and length_m must be positive");
+    cylinder.Finish();
+    ++kinds;
+  }
+  if (map.Has("sphere")) {
+    YamlMap sphere = map.Map("sphere");
+    shape.kind = Shape::Kind::kSphere;
+    sphere.Required("radius_m", &shape.radius_m);
+    if (shape.radius_m <= 0.0) map.Fail("sphere", "radius_m must be positive");
+    sphere.Finish();
+    ++kinds;
+  }
+  if (kinds != 1)
+    map.Fail("box", "a shape is exactly one of box: [x, y, z], cylinder: {...} or sphere: {...}");
+  OptionalVector3(map, "origin_m", &shape.origin_B_m);
+  OptionalVector3(map, "rpy_deg", &shape.rpy_B_rad, kDegToRad);
+  map.Finish();
+  return shape;
+}
+
+void OptionalShapes(YamlMap& map, const std::string& key, const std::string& file,
+                    std::vector<Shape>* shapes) {
+  if (!map.Has(key)) return;
+  const YAML::Node node = map.Raw(key);
+  if (!node.IsSequence()) map.Fail(key, "expected a list of shapes");
+  shapes->clear();
+  for (size_t i = 0; i < node.size(); ++i) {
+    YamlMap shape(node[i], file, map.PathOf(key) + "[" + std::to_string(i) + "]");
+    shapes->push_back(ReadShape(shape));
+  }
+}
+
+// Fills `sub` from `map`, keeping what is already there (the defaults) for keys the map leaves out.
+void ReadSubAircraft(YamlMap& map, const std::string& file, SubAircraft* sub) {
+  ReadMass(map, &sub->mass);
+  std::string joint = sub->joint == JointType::kFixed ? "fixed" : "spherical";
+  map.OptionalChoice("joint", &joint, {"spherical", "fixed"});
+  sub->joint = joint == "fixed" ? JointType::kFixed : JointType::kSpherical;
+  OptionalShapes(map, "collision", file, &sub->collision);
+  map.Optional("mesh", &sub->mesh);
+}
+
+}  // namespace
+
+double Vehicle::TotalMass_kg() const {
+  double m = platform.mass_kg;
+  for (const auto& t : tools) m += t.mass.mass_kg;
+  for (const auto& s : sub_aircraft) m += s.mass.mass_kg;
+  return m;
+}
+
+Vehicle LoadVehicle(const std::string& path) {
+  const YAML::Node root = bridge::LoadYamlFile(path);
+  Vehicle vehicle;
+  vehicle.source_file = path;
+  YamlMap top(root, path);
+  top.Required("name", &vehicle.name);
+  std::string source;
+  top.Optional("source", &source);  // free text: where the numbers come from
+
+  YamlMap platform = top.Map("platform");
+  ReadMass(platform, &vehicle.platform);
+  CheckMass(platform, vehicle.platform, "the platform");
+  OptionalShapes(platform, "collision", path, &vehicle.platform_collision);
+  platform.Optional("mesh", &vehicle.platform_mesh);
+  platform.Finish();
+
+  if (top.Has("tools")) {
+    const YAML::Node tools = top.Raw("tools");
+    if (!tools.IsSequence()) top.Fail("tools", "expected a list of tools");
+    for (size_t i = 0; i < tools.size(); ++i) {
+      YamlMap map(tools[i], path, "tools[" + std::to_string(i) + "]");
+      Tool tool;
+      map.Required("name", &tool.name);
+      ReadMass(map, &tool.mass);
+      CheckMass(map, tool.mass, "tool '" + tool.name + "'");
+      OptionalVector3(map, "origin_m", &tool.origin_P_m);
+      OptionalVector3(map, "rpy_deg", &tool.rpy_P_rad, kDegToRad);
+      OptionalShapes(map, "collision", path, &tool.collision);
+      map.Optional("mesh", &tool.mesh);
+      map.Finish();
+      vehicle.tools.push_back(tool);
+    }
+  }
+
+  SubAircraft defaults;
+  YamlMap defaults_map = top.Map("sub_aircraft_defaults");
+  ReadSubAircraft(defaults_map, path, &defaults);
+  defaults_map.Finish();
+
+  const YAML::Node subs = top.Raw("sub_aircraft");
+  if (!subs || !subs.IsSequence() || subs.size() < 2) {
+    top.Fail("sub_aircraft", "expected a list of at least two sub-aircraft");
+  }
+  for (size_t i = 0; i < subs.size(); ++i) {
+    YamlMap map(subs[i], path, "sub_aircraft[" + std::to_string(i) + "]");
+    SubAircraft sub = defaults;
+    sub.name = "sub" + std::to_string(i + 1);
+    map.Optional("name", &sub.name);
+    ReadSubAircraft(map, path, &sub);
+    CheckMass(map, sub.mass, "sub-aircraft '" + sub.name + "'");
+    if (!map.Has("joint_m")) map.Fail("joint_m", "is required: the joint position d_i in the platform frame");
+    OptionalVector3(map, "joint_m", &sub.joint_P_m);
+    double yaw_deg = 0.0;
+    map.OptionalInRange("yaw_deg", &yaw_deg, -360.0, 360.0);
+    sub.initial_yaw_rad = yaw_deg * kDegToRad;
+    map.Finish();
+    for (const auto& other : vehicle.sub_aircraft) {
+      if (other.name == sub.name) map.Fail("name", "'" + sub.name + "' is used twice");
+    }
+    vehicle.sub_aircraft.push_back(sub);
+  }
+  top.Finish();
+  return vehicle;
+}
+
+}  // namespace iapsim::physics
