@@ -321,7 +321,13 @@ int ProcessMain(int argc, char** argv, const std::string& description, const Pro
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
+    // CLI11 reports --help as a parse "error" with exit code 0
+    if (e.get_exit_code() == 0) {
+      std::cout << app.help();
+      return 0;
+    }
+    std::cerr << e.what() << "\n" << app.help();
+    return 2;
   }
 
   spdlog::set_pattern("[%H:%M:%S.%e] [" + args.node + "] [%l] %v");
