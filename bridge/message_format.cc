@@ -236,8 +236,7 @@ class YamlBuilder : public FieldVisitor {
  public:
   explicit YamlBuilder(size_t max_bytes_shown) : max_bytes_shown_(max_bytes_shown) {}
 
-  void BeginMessage(const std::string& path, const MessageSchema& schema, int depth) override {
-    (void)depth;
+  void BeginMessage(const std::string& path, const MessageSchema& schema) override {
     tracker_.Enter(path, schema);
     if (path.empty()) {
       open_.assign(1, {path, &root_});
@@ -246,22 +245,18 @@ class YamlBuilder : public FieldVisitor {
     Add(path, YamlNode{YamlNode::Kind::kMessage, LastComponent(path), "", {}}, true);
   }
 
-  void BeginArray(const std::string& path, size_t count, int depth) override {
-    (void)depth;
+  void BeginArray(const std::string& path, size_t count) override {
     YamlNode node{YamlNode::Kind::kArray, LastComponent(path), "", {}};
     node.children.reserve(count);
     Add(path, std::move(node), true);
   }
 
-  void Leaf(const std::string& path, const std::string& name, const LeafValue& value, int depth) override {
-    (void)depth;
+  void Leaf(const std::string& path, const std::string& name, const LeafValue& value) override {
     const FieldSchema* field = tracker_.Find(path, name);
     Add(path, YamlNode{YamlNode::Kind::kScalar, name, FormatLeaf(value, field, TextStyle::kYaml), {}}, false);
   }
 
-  void Bytes(const std::string& path, const std::string& name, const uint8_t* data, size_t size,
-             int depth) override {
-    (void)depth;
+  void Bytes(const std::string& path, const std::string& name, const uint8_t* data, size_t size) override {
     std::string text;
     if (size > max_bytes_shown_) {
       text = "\"<" + std::to_string(size) + " bytes>\"";
@@ -382,20 +377,16 @@ class Flattener : public FieldVisitor {
  public:
   explicit Flattener(FlatMessage* out) : out_(out) {}
 
-  void BeginMessage(const std::string& path, const MessageSchema& schema, int depth) override {
-    (void)depth;
+  void BeginMessage(const std::string& path, const MessageSchema& schema) override {
     tracker_.Enter(path, schema);
   }
 
-  void Leaf(const std::string& path, const std::string& name, const LeafValue& value, int depth) override {
-    (void)depth;
+  void Leaf(const std::string& path, const std::string& name, const LeafValue& value) override {
     out_->columns.push_back(path);
     out_->values.push_back(FormatLeaf(value, tracker_.Find(path, name), TextStyle::kPlain));
   }
 
-  void Bytes(const std::string& path, const std::string& name, const uint8_t* data, size_t size,
-             int depth) override {
-    (void)name, (void)data, (void)depth;
+  void Bytes(const std::string& path, const std::string&, const uint8_t*, size_t size) override {
     out_->columns.push_back(path);
     out_->values.push_back(std::to_string(size));
   }
@@ -412,8 +403,7 @@ class PoseFinder : public FieldVisitor {
   PoseFinder(std::string pose_field, std::string stamp_path)
       : pose_field_(std::move(pose_field)), stamp_path_(std::move(stamp_path)) {}
 
-  void BeginMessage(const std::string& path, const MessageSchema& schema, int depth) override {
-    (void)depth;
+  void BeginMessage(const std::string& path, const MessageSchema& schema) override {
     tracker_.Enter(path, schema);
     if (matched_) return;
     if (pose_field_.empty() ? IsPoseType(schema.datatype) : path == pose_field_) {
@@ -423,13 +413,11 @@ class PoseFinder : public FieldVisitor {
     }
   }
 
-  void BeginArray(const std::string& path, size_t count, int depth) override {
-    (void)count, (void)depth;
+  void BeginArray(const std::string& path, size_t) override {
     if (!matched_ && !pose_field_.empty() && path == pose_field_) Mismatch("an array");
   }
 
-  void Leaf(const std::string& path, const std::string& name, const LeafValue& value, int depth) override {
-    (void)depth;
+  void Leaf(const std::string& path, const std::string& name, const LeafValue& value) override {
     if (!stamp_path_.empty() && path == stamp_path_) {
       if (const auto* t = std::get_if<TimeNs>(&value)) stamp_ns_ = t->ns;
     }
@@ -445,9 +433,7 @@ class PoseFinder : public FieldVisitor {
     Store(rest, *number);
   }
 
-  void Bytes(const std::string& path, const std::string& name, const uint8_t* data, size_t size,
-             int depth) override {
-    (void)name, (void)data, (void)size, (void)depth;
+  void Bytes(const std::string& path, const std::string&, const uint8_t*, size_t) override {
     if (!matched_ && !pose_field_.empty() && path == pose_field_) Mismatch("a byte array");
   }
 

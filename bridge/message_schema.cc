@@ -117,7 +117,7 @@ class Walker {
 
   bool WalkMessage(const MessageSchema& schema, const std::string& path, int depth) {
     if (depth > kMaxDepth) return Fail(path, "nesting deeper than " + std::to_string(kMaxDepth));
-    if (visitor_) visitor_->BeginMessage(path, schema, depth);
+    if (visitor_) visitor_->BeginMessage(path, schema);
     for (const auto& field : schema.fields) {
       const std::string field_path = path.empty() ? field.name : path + "." + field.name;
       if (!WalkField(field, field_path, depth)) return false;
@@ -143,13 +143,13 @@ class Walker {
     if (field.kind == FieldKind::kUint8 || field.kind == FieldKind::kInt8) {
       const uint8_t* p;
       if (!cursor_.Take(count, &p)) return Fail(path, "truncated byte array");
-      if (visitor_) visitor_->Bytes(path, field.name, p, count, depth);
+      if (visitor_) visitor_->Bytes(path, field.name, p, count);
       return true;
     }
     if (element_size == 0 && count > cursor_.remaining() && !MayBeEmpty(field)) {
       return Fail(path, "array of " + std::to_string(count) + " elements exceeds the remaining bytes");
     }
-    if (visitor_) visitor_->BeginArray(path, count, depth);
+    if (visitor_) visitor_->BeginArray(path, count);
     for (size_t i = 0; i < count; ++i) {
       const std::string index = "[" + std::to_string(i) + "]";
       if (!WalkElement(field, path + index, field.name + index, depth + 1)) return false;
@@ -164,13 +164,12 @@ class Walker {
       if (!cursor_.ReadU32(&n)) return Fail(path, "truncated string length");
       const uint8_t* p;
       if (!cursor_.Take(n, &p)) return Fail(path, "string of " + std::to_string(n) + " bytes is truncated");
-      if (visitor_)
-        visitor_->Leaf(path, name, LeafValue(std::string(reinterpret_cast<const char*>(p), n)), depth);
+      if (visitor_) visitor_->Leaf(path, name, LeafValue(std::string(reinterpret_cast<const char*>(p), n)));
       return true;
     }
     const uint8_t* p;
     if (!cursor_.Take(PrimitiveSize(field.kind), &p)) return Fail(path, "truncated value");
-    if (visitor_) visitor_->Leaf(path, name, ReadLeaf(field.kind, p), depth);
+    if (visitor_) visitor_->Leaf(path, name, ReadLeaf(field.kind, p));
     return true;
   }
 

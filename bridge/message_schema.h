@@ -59,16 +59,11 @@ using LeafValue = std::variant<bool, int64_t, uint64_t, double, std::string, Tim
 class FieldVisitor {
  public:
   virtual ~FieldVisitor() = default;
-  virtual void BeginMessage(const std::string& path, const MessageSchema& schema, int depth) {
-    (void)path, (void)schema, (void)depth;
-  }
-  virtual void BeginArray(const std::string& path, size_t count, int depth) {
-    (void)path, (void)count, (void)depth;
-  }
-  virtual void Leaf(const std::string& path, const std::string& name, const LeafValue& value, int depth) = 0;
+  virtual void BeginMessage(const std::string& /*path*/, const MessageSchema& /*schema*/) {}
+  virtual void BeginArray(const std::string& /*path*/, size_t /*count*/) {}
+  virtual void Leaf(const std::string& path, const std::string& name, const LeafValue& value) = 0;
   /// Arrays of bytes (uint8/int8) are reported whole, never element by element.
-  virtual void Bytes(const std::string& path, const std::string& name, const uint8_t* data, size_t size,
-                     int depth) = 0;
+  virtual void Bytes(const std::string& path, const std::string& name, const uint8_t* data, size_t size) = 0;
 };
 
 /// All message schemas of one full definition (root message plus every nested "MSG:" section).

@@ -116,10 +116,10 @@ TEST(Codec, RandomAndCorruptedInputIsRejectedOrDecodedWithoutCrash) {
 
 class CollectingVisitor : public FieldVisitor {
  public:
-  void Leaf(const std::string& path, const std::string&, const LeafValue& value, int) override {
+  void Leaf(const std::string& path, const std::string&, const LeafValue& value) override {
     leaves[path] = value;
   }
-  void Bytes(const std::string& path, const std::string&, const uint8_t*, size_t size, int) override {
+  void Bytes(const std::string& path, const std::string&, const uint8_t*, size_t size) override {
     byte_arrays[path] = size;
   }
   std::map<std::string, LeafValue> leaves;

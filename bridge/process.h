@@ -3,7 +3,7 @@
 // clock (lockstep / fast / realtime), heartbeats, clean shutdown. A process supplies only its logic.
 //
 // Lockstep protocol, per clock step k:
-//   clock owner: Step(k) publishes state k, then the runtime publishes tick k (/iapsim/tick and /clock)
+//   clock owner: Step(k) publishes state k, then the runtime publishes /clock and, last, tick k
 //   participant: on tick k, if due: Step(k) publishes its outputs, then the runtime publishes ack k
 //   clock owner: steps to k+1 once every awaited participant acked k (cmd k arrived before ack k: same
 //   socket)
