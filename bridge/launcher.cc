@@ -111,7 +111,7 @@ struct Child {
   int status = 0;
   bool ready = false;
   bool said_bye = false;
-  double hang_timeout_s = 0.5;
+  double hang_timeout_s = 2.0;
   double startup_timeout_s = 30.0;
   Clock::time_point last_heartbeat;
   int64_t sim_ns = 0;

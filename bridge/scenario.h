@@ -51,7 +51,7 @@ struct ProcessConfig {
   std::string exec;  // executable in the build's bin/ folder, or an absolute path
   ProcessRole role = ProcessRole::kParticipant;
   double rate_hz = 0.0;         // 0: every clock step
-  double hang_timeout_s = 0.5;  // no heartbeat this long: the process is hung
+  double hang_timeout_s = 2.0;  // no heartbeat this long: the process is hung (slack for loaded CI machines)
   double startup_timeout_s = 30.0;
   YAML::Node params;  // validated by the process itself (`EXEC --check`)
   int line = 0;       // line of the process's entry in the scenario file, for messages

@@ -9,6 +9,8 @@ find_package(nlohmann_json REQUIRED)
 find_package(Threads REQUIRED)
 pkg_check_modules(URDFDOM REQUIRED IMPORTED_TARGET urdfdom)
 pkg_check_modules(TINYXML2 REQUIRED IMPORTED_TARGET tinyxml2)
+# the double-precision build (its .pc file adds -DBT_USE_DOUBLE_PRECISION); FindBullet finds only float
+pkg_check_modules(BULLET REQUIRED IMPORTED_TARGET bullet-float64)
 
 # gencpp needs Debian's python (the pyenv python on PATH has no ROS modules)
 set(IAPSIM_PYTHON /usr/bin/python3 CACHE FILEPATH "Python with python3-genmsg and python3-gencpp")

@@ -17,8 +17,8 @@
 #include "bridge/message_format.h"
 #include "bridge/message_registry.h"
 #include "bridge/scenario.h"
-#include "physics/urdf.h"
-#include "physics/vehicle.h"
+#include "model/urdf.h"
+#include "model/vehicle.h"
 
 namespace iapsim::tools {
 namespace {
@@ -231,14 +231,14 @@ int Echo(const LiveArgs& args) {
 }
 
 int Urdf(const std::string& vehicle_path, const std::string& output) {
-  physics::Vehicle vehicle;
+  model::Vehicle vehicle;
   try {
-    vehicle = physics::LoadVehicle(vehicle_path);
+    vehicle = model::LoadVehicle(vehicle_path);
   } catch (const ConfigError& e) {
     std::cerr << "iapsim: invalid vehicle: " << e.what() << std::endl;
     return 2;
   }
-  const std::string urdf = physics::GenerateUrdf(vehicle);
+  const std::string urdf = model::GenerateUrdf(vehicle);
   if (output.empty()) {
     std::cout << urdf;
     return 0;

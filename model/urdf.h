@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "physics/vehicle.h"
+#include "model/vehicle.h"
 
-namespace iapsim::physics {
+namespace iapsim::model {
 
 std::string GenerateUrdf(const Vehicle& vehicle);
 
@@ -45,4 +45,4 @@ MultibodyDescription ParseUrdf(const std::string& xml, const std::string& source
 /// Reads and parses a URDF file. Throws std::invalid_argument naming the file.
 MultibodyDescription LoadUrdfFile(const std::string& path);
 
-}  // namespace iapsim::physics
+}  // namespace iapsim::model

@@ -1,4 +1,4 @@
-#include "physics/urdf.h"
+#include "model/urdf.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -8,9 +8,9 @@
 #include <fstream>
 
 #include "bridge/config.h"
-#include "physics/vehicle.h"
+#include "model/vehicle.h"
 
-namespace iapsim::physics {
+namespace iapsim::model {
 namespace {
 
 namespace fs = std::filesystem;
@@ -18,6 +18,8 @@ namespace fs = std::filesystem;
 std::string VehiclePath(const std::string& name) {
   return std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/" + name + ".yaml";
 }
+
+std::string F450() { return std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/parts/f450.yaml"; }
 
 std::string WriteTemp(const std::string& name, const std::string& text) {
   const std::string path = ::testing::TempDir() + "/" + name + "-" + std::to_string(getpid()) + ".yaml";
@@ -27,6 +29,7 @@ std::string WriteTemp(const std::string& name, const std::string& text) {
 
 TEST(Vehicle, EveryShippedConfigurationLoadsAndRoundTripsThroughUrdf) {
   for (const auto& entry : fs::directory_iterator(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles")) {
+    if (entry.path().extension() != ".yaml") continue;  // parts/ holds pieces, not vehicles
     SCOPED_TRACE(entry.path().string());
     const Vehicle vehicle = LoadVehicle(entry.path().string());
     const MultibodyDescription model = ParseUrdf(GenerateUrdf(vehicle), vehicle.name + ".urdf");
@@ -57,6 +60,11 @@ TEST(Vehicle, ThreeStarMatchesTableI) {
     EXPECT_NEAR(sub.joint_P_m.head<2>().norm(), 0.48, 1e-12);  // d_h
     EXPECT_DOUBLE_EQ(sub.joint_P_m.z(), 0.07);                 // d_v
     EXPECT_EQ(sub.joint, JointType::kSpherical);
+    // parts/f450.yaml: X layout, spins cancel, 2.6x the sub-aircraft's weight at full speed
+    ASSERT_EQ(sub.rotors.hub_S_m.size(), 4u);
+    EXPECT_EQ(sub.rotors.spin[0] + sub.rotors.spin[1] + sub.rotors.spin[2] + sub.rotors.spin[3], 0);
+    EXPECT_NEAR(sub.rotors.hub_S_m[0].norm(), 0.225, 1e-12);
+    EXPECT_NEAR(4 * sub.rotors.MaxThrust_N() / (1.6 * 9.81), 2.6, 0.05);
   }
   EXPECT_DOUBLE_EQ(v.TotalMass_kg(), 5.9);
   // equilateral: the joints' centroid is the platform origin
@@ -69,7 +77,7 @@ TEST(Vehicle, AnyNumberOfSubAircraftFromYamlAlone) {
   std::string text =
       "name: hexa\n"
       "platform: {mass_kg: 2.0, inertia_kgm2: [0.05, 0.05, 0.1], collision: [{box: [0.3, 0.3, 0.05]}]}\n"
-      "sub_aircraft_defaults: {mass_kg: 1.6, inertia_kgm2: [0.0134, 0.0134, 0.0248]}\n"
+      "sub_aircraft_defaults: {base: " + F450() + "}\n"
       "sub_aircraft:\n";
   for (int i = 0; i < 6; ++i) {
     const double a = i * M_PI / 3.0;
@@ -91,7 +99,7 @@ struct BadVehicle {
 TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
   const std::string good_platform = "platform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04]}\n";
   const std::string subs =
-      "sub_aircraft_defaults: {mass_kg: 1.6, inertia_kgm2: [0.0134, 0.0134, 0.0248]}\n"
+      "sub_aircraft_defaults: {base: " + F450() + "}\n"
       "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n";
   const std::vector<BadVehicle> cases = {
       {"typo", "name: x\n" + good_platform + subs + "extra_key: 1\n", "extra_key: unknown key"},
@@ -101,20 +109,32 @@ TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
        "not positive definite"},
       {"one sub",
        "name: x\n" + good_platform +
-           "sub_aircraft_defaults: {mass_kg: 1.6, inertia_kgm2: [0.01, 0.01, 0.02]}\n"
+           "sub_aircraft_defaults: {base: " + F450() + "}\n"
            "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n",
        "at least two sub-aircraft"},
       {"no joint",
        "name: x\n" + good_platform +
-           "sub_aircraft_defaults: {mass_kg: 1.6, inertia_kgm2: [0.01, 0.01, 0.02]}\n"
+           "sub_aircraft_defaults: {base: " + F450() + "}\n"
            "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {yaw_deg: 5}\n",
        "sub_aircraft[1].joint_m: is required"},
       {"shape",
        "name: x\nplatform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04], collision: [{cone: 1}]}\n" + subs,
        "a shape is exactly one of"},
-      {"vector",
+      {"no rotors",
        "name: x\n" + good_platform +
            "sub_aircraft_defaults: {mass_kg: 1.6, inertia_kgm2: [0.01, 0.01, 0.02]}\n"
+           "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
+       "sub_aircraft[0].rotors: is required"},
+      {"rotor speeds",
+       "name: x\n" + good_platform +
+           "sub_aircraft_defaults:\n  base: " + F450() +
+           "\n  rotors: {arm_m: 0.2, thrust_coefficient: 1e-5, torque_coefficient: 1e-7,"
+           " motor_time_constant_s: 0.02, speed_rad_s: [900, 100]}\n"
+           "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
+       "sub_aircraft_defaults.rotors.speed_rad_s: expected 0 <= min < max"},
+      {"vector",
+       "name: x\n" + good_platform +
+           "sub_aircraft_defaults: {base: " + F450() + "}\n"
            "sub_aircraft:\n  - {joint_m: [0.5, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
        "expected 3 numbers, got 2"},
   };
@@ -190,4 +210,4 @@ TEST(Urdf, RejectsWhatItCannotSimulateNamingTheFile) {
 }
 
 }  // namespace
-}  // namespace iapsim::physics
+}  // namespace iapsim::model

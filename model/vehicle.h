@@ -3,10 +3,11 @@
 // seed paper §III. Loaded from configs/vehicles/*.yaml; frames are FRD bodies in a NED world.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <string>
 #include <vector>
 
-namespace iapsim::physics {
+namespace iapsim::model {
 
 /// A collision (and default visual) shape, placed in its body's frame.
 struct Shape {
@@ -38,12 +39,40 @@ struct Tool {
 
 enum class JointType { kSpherical, kFixed };
 
+/// The rotors of one sub-aircraft: thrust k_f·ω² along −z_S at each hub, drag torque k_m·ω² about z_S,
+/// first-order motor speed dynamics with saturation.
+struct RotorSet {
+  std::vector<Eigen::Vector3d> hub_S_m;  // rotor hubs in S (FRD), relative to the joint
+  // +1: the rotor spins counter-clockwise seen from above, so its drag yaws S to the right (about +z_S)
+  std::vector<int> spin;
+  double thrust_coefficient = 0.0;  // k_f, N/(rad/s)^2
+  double torque_coefficient = 0.0;  // k_m, N·m/(rad/s)^2
+  double motor_time_constant_s = 0.0;
+  double min_speed_rad_s = 0.0;
+  double max_speed_rad_s = 0.0;
+
+  double MaxThrust_N() const { return thrust_coefficient * max_speed_rad_s * max_speed_rad_s; }
+  double MinThrust_N() const { return thrust_coefficient * min_speed_rad_s * min_speed_rad_s; }
+};
+
+/// Gains of the simulated flight controller (PX4-style cascade: attitude P -> body-rate PI -> mixer).
+/// Per axis (roll, pitch, yaw) of the sub-aircraft body frame.
+struct FlightControllerGains {
+  Eigen::Vector3d attitude_p_per_s{6.5, 6.5, 2.8};       // rate setpoint per attitude error (PX4 MC_*_P)
+  Eigen::Vector3d rate_p_per_s{20.0, 20.0, 10.0};        // angular acceleration per rate error
+  Eigen::Vector3d rate_i_per_s2{10.0, 10.0, 5.0};        // ... per integrated rate error
+  Eigen::Vector3d rate_integral_limit_rad_s2{5.0, 5.0, 2.0};  // bound of the integral's contribution
+  Eigen::Vector3d max_rate_rad_s{3.84, 3.84, 3.49};      // PX4 MC_*RATE_MAX: 220, 220, 200 deg/s
+};
+
 struct SubAircraft {
   std::string name;
   MassProperties mass;  // CoM at the joint (seed §III-A) unless com_B_m says
   JointType joint = JointType::kSpherical;
   Eigen::Vector3d joint_P_m = Eigen::Vector3d::Zero();  // d_i: joint (= CoM) position in P
   double initial_yaw_rad = 0.0;                         // initial yaw of S_i relative to P
+  RotorSet rotors;
+  FlightControllerGains flight_controller;
   std::vector<Shape> collision;
   std::string mesh;
 };
@@ -59,9 +88,17 @@ struct Vehicle {
 
   /// m: total mass of platform, tools and sub-aircraft.
   double TotalMass_kg() const;
+  /// d_0: the whole IAP's centre of mass in P, with every joint at its initial position (seed §III-B).
+  Eigen::Vector3d CenterOfMass_P_m() const;
+  /// Level-hover trim: the vertical thrust of each sub-aircraft that carries the weight with no moment
+  /// about the centre of mass, of least norm (equal shares for a symmetric IAP).
+  Eigen::VectorXd LevelHoverThrusts_N(double gravity_mps2) const;
 };
+
+/// URDF's roll-pitch-yaw convention: R = Rz(yaw) Ry(pitch) Rx(roll).
+Eigen::Matrix3d RotationFromRpy(const Eigen::Vector3d& rpy_rad);
 
 /// Loads and validates a vehicle YAML file. Throws bridge::ConfigError (file:line: key: what).
 Vehicle LoadVehicle(const std::string& path);
 
-}  // namespace iapsim::physics
+}  // namespace iapsim::model

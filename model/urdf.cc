@@ -1,4 +1,4 @@
-#include "physics/urdf.h"
+#include "model/urdf.h"
 
 #include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
@@ -10,7 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace iapsim::physics {
+namespace iapsim::model {
 namespace {
 
 // the shortest text that reads back as exactly the same double
@@ -241,4 +241,4 @@ MultibodyDescription LoadUrdfFile(const std::string& path) {
   return ParseUrdf(text.str(), path);
 }
 
-}  // namespace iapsim::physics
+}  // namespace iapsim::model

@@ -1,11 +1,13 @@
-#include "physics/vehicle.h"
+#include "model/vehicle.h"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/QR>
 #include <cmath>
+#include <filesystem>
 
 #include "bridge/config.h"
 
-namespace iapsim::physics {
+namespace iapsim::model {
 namespace {
 
 using bridge::YamlMap;
@@ -116,6 +118,51 @@ void OptionalShapes(YamlMap& map, const std::string& key, const std::string& fil
   }
 }
 
+// rotors: {layout: x | plus, arm_m, thrust_coefficient, torque_coefficient, motor_time_constant_s,
+//          speed_rad_s: [min, max]}; motor numbering and spin follow PX4's quadrotor geometries
+void ReadRotors(YamlMap& map, RotorSet* rotors) {
+  std::string layout = "x";
+  map.OptionalChoice("layout", &layout, {"x", "plus"});
+  double arm_m = 0.0;
+  map.Required("arm_m", &arm_m);
+  if (!(arm_m > 0.0 && arm_m < 10.0)) map.Fail("arm_m", "must be in (0, 10) m");
+  map.Required("thrust_coefficient", &rotors->thrust_coefficient);
+  if (!(rotors->thrust_coefficient > 0.0)) map.Fail("thrust_coefficient", "must be positive (N/(rad/s)^2)");
+  map.Required("torque_coefficient", &rotors->torque_coefficient);
+  if (!(rotors->torque_coefficient >= 0.0)) map.Fail("torque_coefficient", "must be >= 0 (N*m/(rad/s)^2)");
+  map.Required("motor_time_constant_s", &rotors->motor_time_constant_s);
+  if (!(rotors->motor_time_constant_s > 0.0 && rotors->motor_time_constant_s < 10.0))
+    map.Fail("motor_time_constant_s", "must be in (0, 10) s");
+  if (!map.Has("speed_rad_s")) map.Fail("speed_rad_s", "is required: [min, max] rotor speed in rad/s");
+  const auto speed = ReadNumbers(map, "speed_rad_s", {2});
+  if (!(speed[0] >= 0.0 && speed[1] > speed[0])) map.Fail("speed_rad_s", "expected 0 <= min < max");
+  rotors->min_speed_rad_s = speed[0];
+  rotors->max_speed_rad_s = speed[1];
+  map.Finish();
+
+  const double a = layout == "x" ? arm_m / std::sqrt(2.0) : arm_m;
+  if (layout == "x") {  // front-right, rear-left, front-left, rear-right
+    rotors->hub_S_m = {{a, a, 0.0}, {-a, -a, 0.0}, {a, -a, 0.0}, {-a, a, 0.0}};
+  } else {  // right, left, front, rear
+    rotors->hub_S_m = {{0.0, a, 0.0}, {0.0, -a, 0.0}, {a, 0.0, 0.0}, {-a, 0.0, 0.0}};
+  }
+  rotors->spin = {+1, +1, -1, -1};
+}
+
+void OptionalPerAxis(YamlMap& map, const std::string& key, Eigen::Vector3d* value, double scale = 1.0) {
+  OptionalVector3(map, key, value, scale);
+  if (value->minCoeff() < 0.0) map.Fail(key, "must be >= 0 on every axis");
+}
+
+void ReadFlightController(YamlMap& map, FlightControllerGains* gains) {
+  OptionalPerAxis(map, "attitude_p", &gains->attitude_p_per_s);
+  OptionalPerAxis(map, "rate_p", &gains->rate_p_per_s);
+  OptionalPerAxis(map, "rate_i", &gains->rate_i_per_s2);
+  OptionalPerAxis(map, "rate_integral_limit", &gains->rate_integral_limit_rad_s2);
+  OptionalPerAxis(map, "max_rate_deg_s", &gains->max_rate_rad_s, kDegToRad);
+  map.Finish();
+}
+
 // Fills `sub` from `map`, keeping what is already there (the defaults) for keys the map leaves out.
 void ReadSubAircraft(YamlMap& map, const std::string& file, SubAircraft* sub) {
   ReadMass(map, &sub->mass);
@@ -124,6 +171,14 @@ void ReadSubAircraft(YamlMap& map, const std::string& file, SubAircraft* sub) {
   sub->joint = joint == "fixed" ? JointType::kFixed : JointType::kSpherical;
   OptionalShapes(map, "collision", file, &sub->collision);
   map.Optional("mesh", &sub->mesh);
+  if (map.Has("rotors")) {
+    YamlMap rotors = map.Map("rotors");
+    ReadRotors(rotors, &sub->rotors);
+  }
+  if (map.Has("flight_controller")) {
+    YamlMap gains = map.Map("flight_controller");
+    ReadFlightController(gains, &sub->flight_controller);
+  }
 }
 
 }  // namespace
@@ -133,6 +188,33 @@ double Vehicle::TotalMass_kg() const {
   for (const auto& t : tools) m += t.mass.mass_kg;
   for (const auto& s : sub_aircraft) m += s.mass.mass_kg;
   return m;
+}
+
+Eigen::Matrix3d RotationFromRpy(const Eigen::Vector3d& rpy_rad) {
+  return (Eigen::AngleAxisd(rpy_rad.z(), Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(rpy_rad.y(), Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(rpy_rad.x(), Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+Eigen::Vector3d Vehicle::CenterOfMass_P_m() const {
+  Eigen::Vector3d moment = platform.mass_kg * platform.com_B_m;
+  for (const auto& t : tools) moment += t.mass.mass_kg * (t.origin_P_m + RotationFromRpy(t.rpy_P_rad) * t.mass.com_B_m);
+  for (const auto& s : sub_aircraft) {
+    moment += s.mass.mass_kg *
+              (s.joint_P_m + Eigen::AngleAxisd(s.initial_yaw_rad, Eigen::Vector3d::UnitZ()) * s.mass.com_B_m);
+  }
+  return moment / TotalMass_kg();
+}
+
+Eigen::VectorXd Vehicle::LevelHoverThrusts_N(double gravity_mps2) const {
+  const Eigen::Vector3d d_0 = CenterOfMass_P_m();
+  Eigen::MatrixXd A(3, sub_aircraft.size());
+  for (size_t i = 0; i < sub_aircraft.size(); ++i) {
+    const Eigen::Vector3d r = sub_aircraft[i].joint_P_m - d_0;
+    A.col(i) << 1.0, r.x(), r.y();
+  }
+  return A.completeOrthogonalDecomposition().solve(Eigen::Vector3d(TotalMass_kg() * gravity_mps2, 0.0, 0.0));
 }
 
 Vehicle LoadVehicle(const std::string& path) {
@@ -171,6 +253,15 @@ Vehicle LoadVehicle(const std::string& path) {
 
   SubAircraft defaults;
   YamlMap defaults_map = top.Map("sub_aircraft_defaults");
+  if (defaults_map.Has("base")) {  // a parts file, relative to this file; this map overrides its keys
+    std::string base;
+    defaults_map.Required("base", &base);
+    const std::string base_path =
+        base.empty() || base[0] == '/' ? base : (std::filesystem::path(path).parent_path() / base).string();
+    YamlMap base_map(bridge::LoadYamlFile(base_path), base_path);
+    ReadSubAircraft(base_map, base_path, &defaults);
+    base_map.Finish();
+  }
   ReadSubAircraft(defaults_map, path, &defaults);
   defaults_map.Finish();
 
@@ -185,6 +276,9 @@ Vehicle LoadVehicle(const std::string& path) {
     map.Optional("name", &sub.name);
     ReadSubAircraft(map, path, &sub);
     CheckMass(map, sub.mass, "sub-aircraft '" + sub.name + "'");
+    if (sub.rotors.hub_S_m.empty()) {
+      map.Fail("rotors", "is required (here or in sub_aircraft_defaults): the sub-aircraft's rotor model");
+    }
     if (!map.Has("joint_m")) map.Fail("joint_m", "is required: the joint position d_i in the platform frame");
     OptionalVector3(map, "joint_m", &sub.joint_P_m);
     double yaw_deg = 0.0;
@@ -200,4 +294,4 @@ Vehicle LoadVehicle(const std::string& path) {
   return vehicle;
 }
 
-}  // namespace iapsim::physics
+}  // namespace iapsim::model

@@ -1,0 +1,420 @@
+#include "physics/multibody_world.h"
+
+#include <BulletDynamics/Featherstone/btMultiBody.h>
+#include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
+#include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+#include <btBulletDynamicsCommon.h>
+
+#include <Eigen/Eigenvalues>
+#include <stdexcept>
+
+namespace iapsim::physics {
+namespace {
+
+static_assert(sizeof(btScalar) == sizeof(double), "iapsim needs Bullet's double-precision build");
+
+btVector3 Bt(const Eigen::Vector3d& v) { return btVector3(v.x(), v.y(), v.z()); }
+btQuaternion Bt(const Eigen::Quaterniond& q) { return btQuaternion(q.x(), q.y(), q.z(), q.w()); }
+Eigen::Vector3d Eig(const btVector3& v) { return Eigen::Vector3d(v.x(), v.y(), v.z()); }
+Eigen::Quaterniond Eig(const btQuaternion& q) { return Eigen::Quaterniond(q.w(), q.x(), q.y(), q.z()); }
+
+// Bullet's per-body frame C: the CoM with principal axes (Bullet takes diagonal inertias only).
+struct PrincipalFrame {
+  Eigen::Isometry3d X_BC = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d inertia_C = Eigen::Vector3d::Zero();
+};
+
+PrincipalFrame PrincipalFrameOf(const model::MassProperties& mass) {
+  PrincipalFrame frame;
+  frame.X_BC.translation() = mass.com_B_m;
+  const Eigen::Matrix3d& I = mass.inertia_B_kgm2;
+  if ((I - Eigen::Matrix3d(I.diagonal().asDiagonal())).isZero(0.0)) {
+    frame.inertia_C = I.diagonal();  // already principal: keep the body axes
+    return frame;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(I);
+  Eigen::Matrix3d R_BC = solver.eigenvectors();
+  if (R_BC.determinant() < 0.0) R_BC.col(2) *= -1.0;
+  frame.X_BC.linear() = R_BC;
+  frame.inertia_C = solver.eigenvalues();
+  return frame;
+}
+
+}  // namespace
+
+struct MultibodyWorld::Impl {
+  struct Body {
+    std::string name;
+    btMultiBody* multibody = nullptr;  // or
+    btRigidBody* rigid = nullptr;
+    int link = -1;         // multibody: -1 for the base
+    int parent_body = -2;  // multibody links: the joint's parent body
+    Eigen::Isometry3d X_CB = Eigen::Isometry3d::Identity();  // B in Bullet's frame C
+    double mass_kg = 0.0;
+    Eigen::Matrix3d inertia_B_kgm2 = Eigen::Matrix3d::Zero();
+  };
+
+  double step_s;
+  int solver_iterations;
+  btDefaultCollisionConfiguration collision_config;
+  btCollisionDispatcher dispatcher{&collision_config};
+  btDbvtBroadphase broadphase;
+  btMultiBodyConstraintSolver solver;
+  btMultiBodyDynamicsWorld world{&dispatcher, &broadphase, &solver, &collision_config};
+
+  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::unique_ptr<btMultiBody>> multibodies;
+  std::vector<std::vector<int>> multibody_bodies;  // per multibody: body id of Bullet link k − 1 (base first)
+  std::vector<std::unique_ptr<btMultiBodyLinkCollider>> colliders;
+  std::vector<std::unique_ptr<btMotionState>> motion_states;
+  std::vector<std::unique_ptr<btRigidBody>> rigid_bodies;  // objects, and the ground
+
+  std::vector<Body> bodies;
+  std::vector<BodyState> states;
+  std::vector<Contact> contacts;
+  int64_t step_count = 0;
+
+  // forward kinematics scratch (grown once per multibody size)
+  btAlignedObjectArray<btQuaternion> world_to_local;
+  btAlignedObjectArray<btVector3> local_origin;
+  std::vector<btVector3> link_omega, link_velocity;
+
+  Impl(const WorldConfig& config, double step)
+      : step_s(step), solver_iterations(config.solver_iterations) {
+    world.setGravity(btVector3(0.0, 0.0, config.gravity_mps2));
+    world.getSolverInfo().m_numIterations = solver_iterations;
+  }
+
+  ~Impl() {
+    for (auto& body : rigid_bodies) world.removeRigidBody(body.get());
+    for (auto& collider : colliders) world.removeCollisionObject(collider.get());
+    for (auto& multibody : multibodies) world.removeMultiBody(multibody.get());
+  }
+
+  btCollisionShape* MakeShape(const std::vector<model::Shape>& list, const Eigen::Isometry3d& X_CB) {
+    auto compound = std::make_unique<btCompoundShape>(/*enableDynamicAabbTree=*/false);
+    for (const auto& shape : list) {
+      std::unique_ptr<btCollisionShape> child;
+      switch (shape.kind) {
+        case model::Shape::Kind::kBox:
+          child = std::make_unique<btBoxShape>(Bt(0.5 * shape.box_size_m));
+          break;
+        case model::Shape::Kind::kCylinder:
+          child = std::make_unique<btCylinderShapeZ>(
+              btVector3(shape.radius_m, shape.radius_m, 0.5 * shape.length_m));
+          break;
+        case model::Shape::Kind::kSphere:
+          child = std::make_unique<btSphereShape>(shape.radius_m);
+          break;
+      }
+      Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();
+      X_BS.translation() = shape.origin_B_m;
+      X_BS.linear() = model::RotationFromRpy(shape.rpy_B_rad);
+      const Eigen::Isometry3d X_CS = X_CB * X_BS;
+      btTransform transform;
+      transform.setOrigin(Bt(Eigen::Vector3d(X_CS.translation())));
+      transform.setRotation(Bt(Eigen::Quaterniond(X_CS.linear())));
+      compound->addChildShape(transform, child.get());
+      shapes.push_back(std::move(child));
+    }
+    shapes.push_back(std::move(compound));
+    return shapes.back().get();
+  }
+
+  static void ApplyMaterial(btCollisionObject* object, const Material& material) {
+    object->setFriction(material.friction);
+    object->setRestitution(material.restitution);
+    if (material.contact_stiffness_N_per_m > 0.0) {
+      object->setContactStiffnessAndDamping(material.contact_stiffness_N_per_m,
+                                            material.contact_damping_Ns_per_m);
+    }
+  }
+
+  void AddGround(const WorldConfig& config) {
+    // the plane n·x = c with n = −z (up in NED): z = ground_z_m
+    shapes.push_back(std::make_unique<btStaticPlaneShape>(btVector3(0.0, 0.0, -1.0), -config.ground_z_m));
+    btRigidBody::btRigidBodyConstructionInfo info(0.0, nullptr, shapes.back().get());
+    rigid_bodies.push_back(std::make_unique<btRigidBody>(info));
+    btRigidBody* ground = rigid_bodies.back().get();
+    ApplyMaterial(ground, config.ground_material);
+    ground->setUserIndex(kGround);
+    world.addRigidBody(ground, btBroadphaseProxy::StaticFilter, btBroadphaseProxy::AllFilter);
+  }
+
+  void AddObject(const WorldObject& object) {
+    if (object.shapes.empty()) throw std::invalid_argument("object '" + object.name + "' has no shape");
+    btCollisionShape* shape = MakeShape(object.shapes, Eigen::Isometry3d::Identity());
+    btVector3 inertia = Bt(object.inertia_kgm2);
+    if (object.mass_kg > 0.0 && object.inertia_kgm2.isZero()) shape->calculateLocalInertia(object.mass_kg, inertia);
+    btTransform pose;
+    pose.setOrigin(Bt(object.p_WO_m));
+    pose.setRotation(Bt(object.q_WO.normalized()));
+    motion_states.push_back(std::make_unique<btDefaultMotionState>(pose));
+    btRigidBody::btRigidBodyConstructionInfo info(object.mass_kg, motion_states.back().get(), shape, inertia);
+    info.m_linearDamping = 0.0;
+    info.m_angularDamping = 0.0;
+    rigid_bodies.push_back(std::make_unique<btRigidBody>(info));
+    btRigidBody* rigid = rigid_bodies.back().get();
+    ApplyMaterial(rigid, object.material);
+    rigid->setActivationState(DISABLE_DEACTIVATION);
+    rigid->setUserIndex(static_cast<int>(bodies.size()));
+    world.addRigidBody(rigid, object.filter.group, object.filter.mask);
+
+    Body body;
+    body.name = object.name;
+    body.rigid = rigid;
+    body.mass_kg = object.mass_kg;
+    body.inertia_B_kgm2 = Eig(inertia).asDiagonal();
+    bodies.push_back(body);
+    states.emplace_back();
+  }
+
+  void UpdateBody(int id, const Eigen::Quaterniond& q_WC, const Eigen::Vector3d& p_WC,
+                  const Eigen::Vector3d& w_W, const Eigen::Vector3d& v_WC_W, bool first) {
+    const Body& body = bodies[id];
+    BodyState& state = states[id];
+    const Eigen::Isometry3d X_WC = Eigen::Translation3d(p_WC) * q_WC;
+    const Eigen::Isometry3d X_WB = X_WC * body.X_CB;
+    const Eigen::Vector3d v_WB_W = v_WC_W + w_W.cross(X_WB.translation() - p_WC);
+    if (first) {
+      state.a_WB_W.setZero();
+      state.alpha_WB_W.setZero();
+      state.a_WBcom_W.setZero();
+    } else {  // exact for Bullet's semi-implicit Euler: the acceleration the step applied
+      state.a_WB_W = (v_WB_W - state.v_WB_W) / step_s;
+      state.alpha_WB_W = (w_W - state.w_WB_W) / step_s;
+      state.a_WBcom_W = (v_WC_W - state.v_WBcom_W) / step_s;
+    }
+    state.p_WB_m = X_WB.translation();
+    state.q_WB = Eigen::Quaterniond(X_WB.linear());
+    state.v_WB_W = v_WB_W;
+    state.w_WB_W = w_W;
+    state.p_WBcom_m = p_WC;
+    state.v_WBcom_W = v_WC_W;
+  }
+
+  void UpdateStates(bool first) {
+    for (size_t m = 0; m < multibodies.size(); ++m) {
+      btMultiBody* mb = multibodies[m].get();
+      const int n = mb->getNumLinks();
+      world_to_local.resize(n + 1);
+      local_origin.resize(n + 1);
+      link_omega.resize(n + 1);
+      link_velocity.resize(n + 1);
+      mb->forwardKinematics(world_to_local, local_origin);
+      mb->compTreeLinkVelocities(link_omega.data(), link_velocity.data());
+      for (int k = 0; k <= n; ++k) {  // k = Bullet link + 1 (0: the base); values in the link's frame C
+        const Eigen::Quaterniond q_WC = Eig(world_to_local[k].inverse());
+        UpdateBody(multibody_bodies[m][k], q_WC, Eig(local_origin[k]), q_WC * Eig(link_omega[k]),
+                   q_WC * Eig(link_velocity[k]), first);
+      }
+    }
+    for (size_t i = 0; i < bodies.size(); ++i) {
+      const btRigidBody* rigid = bodies[i].rigid;
+      if (!rigid) continue;
+      const btTransform& X = rigid->getCenterOfMassTransform();
+      UpdateBody(static_cast<int>(i), Eig(X.getRotation()), Eig(X.getOrigin()), Eig(rigid->getAngularVelocity()),
+                 Eig(rigid->getLinearVelocity()), first);
+    }
+  }
+
+  int BodyOf(const btCollisionObject* object) const { return object->getUserIndex(); }
+
+  void CollectContacts() {
+    contacts.clear();
+    const int manifolds = dispatcher.getNumManifolds();
+    for (int m = 0; m < manifolds; ++m) {
+      const btPersistentManifold* manifold = dispatcher.getManifoldByIndexInternal(m);
+      const int a = BodyOf(manifold->getBody0());
+      const int b = BodyOf(manifold->getBody1());
+      for (int p = 0; p < manifold->getNumContacts(); ++p) {
+        const btManifoldPoint& point = manifold->getContactPoint(p);
+        if (point.getDistance() > 0.0 && point.getAppliedImpulse() == 0.0) continue;  // not touching
+        Contact contact;
+        contact.body_a = a;
+        contact.body_b = b;
+        contact.point_W_m = Eig(point.getPositionWorldOnA());
+        contact.normal_W = Eig(point.m_normalWorldOnB);
+        const btVector3 impulse = point.m_normalWorldOnB * point.m_appliedImpulse +
+                                  point.m_lateralFrictionDir1 * point.m_appliedImpulseLateral1 +
+                                  point.m_lateralFrictionDir2 * point.m_appliedImpulseLateral2;
+        contact.force_on_a_W_N = Eig(impulse) / step_s;
+        contact.depth_m = point.getDistance();
+        contacts.push_back(contact);
+      }
+    }
+  }
+};
+
+MultibodyWorld::MultibodyWorld(const WorldConfig& config, double step_s)
+    : impl_(std::make_unique<Impl>(config, step_s)) {
+  if (!(step_s > 0.0)) throw std::invalid_argument("physics step must be positive");
+  if (config.ground) impl_->AddGround(config);
+  for (const auto& object : config.objects) impl_->AddObject(object);
+  impl_->UpdateStates(true);
+}
+
+MultibodyWorld::~MultibodyWorld() = default;
+
+int MultibodyWorld::AddMultibody(const std::string& name, const model::MultibodyDescription& description,
+                                 const Eigen::Vector3d& p_WR_m, const Eigen::Quaterniond& q_WR,
+                                 const Material& material, const CollisionFilter& filter) {
+  Impl& impl = *impl_;
+  const int links = static_cast<int>(description.links.size());
+  if (links < 1 || description.joints.size() + 1 != description.links.size()) {
+    throw std::invalid_argument(description.name + ": a multibody is a tree: one joint per link but the root");
+  }
+  std::vector<PrincipalFrame> frames;
+  for (const auto& link : description.links) frames.push_back(PrincipalFrameOf(link.mass));
+
+  // Bullet numbers links by joint (a parent before its children): joint j makes Bullet link j
+  std::vector<int> bullet_link(links, -1);
+  for (size_t j = 0; j < description.joints.size(); ++j) {
+    const auto& joint = description.joints[j];
+    if (joint.child <= 0 || joint.child >= links || bullet_link[joint.child] != -1 ||
+        (joint.parent != 0 && bullet_link[joint.parent] == -1)) {
+      throw std::invalid_argument(description.name + ": joint '" + joint.name + "' is not in tree order");
+    }
+    bullet_link[joint.child] = static_cast<int>(j);
+  }
+
+  const auto& root = description.links[0];
+  auto multibody = std::make_unique<btMultiBody>(links - 1, root.mass.mass_kg, Bt(frames[0].inertia_C),
+                                                 /*fixedBase=*/false, /*canSleep=*/false);
+  btMultiBody* mb = multibody.get();
+  for (size_t j = 0; j < description.joints.size(); ++j) {
+    const auto& joint = description.joints[j];
+    const PrincipalFrame& parent = frames[joint.parent];
+    const PrincipalFrame& child = frames[joint.child];
+    const Eigen::Matrix3d R_PpC = parent.X_BC.linear();  // parent body frame -> parent principal frame
+    const Eigen::Matrix3d R_CcC = child.X_BC.linear();
+    const Eigen::Matrix3d R_PpCc = model::RotationFromRpy(joint.rpy_parent_rad);
+    // rotates vectors from the parent's principal frame into the child's, at the zero joint position
+    const Eigen::Matrix3d R_parent_to_child = (R_PpC.transpose() * R_PpCc * R_CcC).transpose();
+    const Eigen::Vector3d parent_com_to_pivot = R_PpC.transpose() * (joint.origin_parent_m - parent.X_BC.translation());
+    const Eigen::Vector3d pivot_to_child_com = R_CcC.transpose() * child.X_BC.translation();
+    const double mass = description.links[joint.child].mass.mass_kg;
+    const int parent_link = bullet_link[joint.parent];
+    const btQuaternion rotation = Bt(Eigen::Quaterniond(R_parent_to_child));
+    if (joint.type == model::JointType::kSpherical) {
+      mb->setupSpherical(static_cast<int>(j), mass, Bt(child.inertia_C), parent_link, rotation,
+                         Bt(parent_com_to_pivot), Bt(pivot_to_child_com), /*disableParentCollision=*/true);
+    } else {
+      mb->setupFixed(static_cast<int>(j), mass, Bt(child.inertia_C), parent_link, rotation,
+                     Bt(parent_com_to_pivot), Bt(pivot_to_child_com));
+    }
+  }
+  mb->finalizeMultiDof();
+  const Eigen::Isometry3d X_WR = Eigen::Translation3d(p_WR_m) * q_WR.normalized();
+  const Eigen::Isometry3d X_WC = X_WR * frames[0].X_BC;
+  mb->setBasePos(Bt(Eigen::Vector3d(X_WC.translation())));
+  mb->setWorldToBaseRot(Bt(Eigen::Quaterniond(X_WC.linear())).inverse());
+  // fidelity over Bullet's game defaults (NOTES): no damping, no clamps, no sleeping
+  mb->setLinearDamping(0.0);
+  mb->setAngularDamping(0.0);
+  mb->setMaxCoordinateVelocity(1e30);
+  mb->setMaxAppliedImpulse(1e30);
+  mb->setUseGyroTerm(true);
+  mb->setCanSleep(false);
+  mb->setHasSelfCollision(true);
+  impl.world.addMultiBody(mb, filter.group, filter.mask);
+
+  const int root_id = static_cast<int>(impl.bodies.size());
+  for (int k = 0; k < links; ++k) {
+    const auto& link = description.links[k];
+    Impl::Body body;
+    body.name = name + "/" + link.name;
+    body.multibody = mb;
+    body.link = k == 0 ? -1 : bullet_link[k];
+    body.X_CB = frames[k].X_BC.inverse();
+    body.mass_kg = link.mass.mass_kg;
+    body.inertia_B_kgm2 = link.mass.inertia_B_kgm2;
+    if (k > 0) {
+      for (const auto& joint : description.joints) {
+        if (joint.child == k) body.parent_body = root_id + joint.parent;
+      }
+    }
+    impl.bodies.push_back(body);
+    impl.states.emplace_back();
+    if (link.collision.empty()) continue;
+    auto collider = std::make_unique<btMultiBodyLinkCollider>(mb, body.link);
+    collider->setCollisionShape(impl.MakeShape(link.collision, body.X_CB));
+    Impl::ApplyMaterial(collider.get(), material);
+    collider->setUserIndex(root_id + k);
+    impl.world.addCollisionObject(collider.get(), filter.group, filter.mask);
+    if (k == 0) {
+      mb->setBaseCollider(collider.get());
+    } else {
+      mb->getLink(body.link).m_collider = collider.get();
+    }
+    impl.colliders.push_back(std::move(collider));
+  }
+  std::vector<int> body_of_link(links);
+  for (int k = 0; k < links; ++k) body_of_link[bullet_link[k] + 1] = root_id + k;
+  impl.multibodies.push_back(std::move(multibody));
+  impl.multibody_bodies.push_back(body_of_link);
+  impl.world_to_local.resize(links);
+  impl.local_origin.resize(links);
+  mb->updateCollisionObjectWorldTransforms(impl.world_to_local, impl.local_origin);
+  impl.UpdateStates(true);
+  return root_id;
+}
+
+int MultibodyWorld::body_count() const { return static_cast<int>(impl_->bodies.size()); }
+const std::string& MultibodyWorld::body_name(int body) const { return impl_->bodies.at(body).name; }
+
+int MultibodyWorld::FindBody(const std::string& name) const {
+  for (size_t i = 0; i < impl_->bodies.size(); ++i) {
+    if (impl_->bodies[i].name == name) return static_cast<int>(i);
+  }
+  return -2;
+}
+
+double MultibodyWorld::mass_kg(int body) const { return impl_->bodies.at(body).mass_kg; }
+Eigen::Matrix3d MultibodyWorld::inertia_B_kgm2(int body) const { return impl_->bodies.at(body).inertia_B_kgm2; }
+
+void MultibodyWorld::AddForce_W(int body, const Eigen::Vector3d& force_W_N) {
+  const Impl::Body& b = impl_->bodies[body];
+  if (b.rigid) {
+    b.rigid->applyCentralForce(Bt(force_W_N));
+  } else if (b.link < 0) {
+    b.multibody->addBaseForce(Bt(force_W_N));
+  } else {
+    b.multibody->addLinkForce(b.link, Bt(force_W_N));
+  }
+}
+
+void MultibodyWorld::AddTorque_W(int body, const Eigen::Vector3d& torque_W_Nm) {
+  const Impl::Body& b = impl_->bodies[body];
+  if (b.rigid) {
+    b.rigid->applyTorque(Bt(torque_W_Nm));
+  } else if (b.link < 0) {
+    b.multibody->addBaseTorque(Bt(torque_W_Nm));
+  } else {
+    b.multibody->addLinkTorque(b.link, Bt(torque_W_Nm));
+  }
+}
+
+void MultibodyWorld::AddJointTorque_W(int body, const Eigen::Vector3d& torque_W_Nm) {
+  const Impl::Body& b = impl_->bodies.at(body);
+  if (b.parent_body < 0) throw std::invalid_argument(b.name + " has no joint to a parent");
+  AddTorque_W(body, torque_W_Nm);
+  AddTorque_W(b.parent_body, -torque_W_Nm);
+}
+
+void MultibodyWorld::Step() {
+  Impl& impl = *impl_;
+  impl.world.stepSimulation(impl.step_s, 0);  // exactly one step of step_s (no accumulator)
+  for (auto& rigid : impl.rigid_bodies) rigid->clearForces();  // multibodies clear theirs in the step
+  ++impl.step_count;
+  impl.UpdateStates(false);
+  impl.CollectContacts();
+}
+
+double MultibodyWorld::step_s() const { return impl_->step_s; }
+int64_t MultibodyWorld::step_count() const { return impl_->step_count; }
+const BodyState& MultibodyWorld::body(int body) const { return impl_->states.at(body); }
+const std::vector<Contact>& MultibodyWorld::contacts() const { return impl_->contacts; }
+
+}  // namespace iapsim::physics

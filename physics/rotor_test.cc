@@ -1,0 +1,145 @@
+// Rotor and motor model, mixer priorities, and the flight controller on a free quadrotor.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "model/vehicle.h"
+#include "physics/flight_controller.h"
+#include "physics/multibody_world.h"
+#include "physics/rotor.h"
+
+namespace iapsim::physics {
+namespace {
+
+model::SubAircraft F450() {
+  const model::Vehicle vehicle = model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star.yaml");
+  return vehicle.sub_aircraft[0];
+}
+
+TEST(Rotors, ThrustAndTorqueFollowTheQuadraticLaw) {
+  const model::SubAircraft sub = F450();
+  Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());
+  const double k_f = sub.rotors.thrust_coefficient, k_m = sub.rotors.torque_coefficient;
+  RotorVector speeds(4);
+  speeds << 600.0, 600.0, 600.0, 600.0;
+  rotors.SetSpeeds(speeds);
+  Eigen::Vector3d force, torque;
+  rotors.Wrench_S(&force, &torque);
+  EXPECT_NEAR(force.z(), -4.0 * k_f * 600.0 * 600.0, 1e-12);  // along −z_S (up)
+  EXPECT_NEAR(force.head<2>().norm(), 0.0, 1e-15);
+  EXPECT_NEAR(torque.norm(), 0.0, 1e-12);  // symmetric layout, cancelling spins
+
+  // one faster rotor (1: front-right, spinning CCW): rolls left (−x), pitches up (+y), yaws right (+z)
+  speeds[0] = 800.0;
+  rotors.SetSpeeds(speeds);
+  rotors.Wrench_S(&force, &torque);
+  const double extra = k_f * (800.0 * 800.0 - 600.0 * 600.0);
+  const double arm = 0.225 / std::sqrt(2.0);
+  EXPECT_NEAR(torque.x(), -arm * extra, 1e-12);
+  EXPECT_NEAR(torque.y(), arm * extra, 1e-12);
+  EXPECT_NEAR(torque.z(), k_m * (800.0 * 800.0 - 600.0 * 600.0), 1e-12);
+}
+
+TEST(Rotors, MotorsFollowAFirstOrderLagAndSaturate) {
+  const model::SubAircraft sub = F450();
+  Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());
+  const double tau = sub.rotors.motor_time_constant_s;
+  rotors.SetSpeeds(RotorVector::Constant(4, 200.0));
+  const double dt = 0.001;
+  for (int k = 0; k < 20; ++k) rotors.Step(RotorVector::Constant(4, 900.0), dt);
+  EXPECT_NEAR(rotors.speeds_rad_s()[0], 900.0 - 700.0 * std::exp(-0.02 / tau), 1e-9);
+  for (int k = 0; k < 2000; ++k) rotors.Step(RotorVector::Constant(4, 5000.0), dt);
+  EXPECT_NEAR(rotors.speeds_rad_s()[2], sub.rotors.max_speed_rad_s, 1e-9);
+  for (int k = 0; k < 2000; ++k) rotors.Step(RotorVector::Constant(4, 0.0), dt);
+  EXPECT_NEAR(rotors.speeds_rad_s()[3], sub.rotors.min_speed_rad_s, 1e-9);
+}
+
+TEST(Rotors, MixerIsExactInsideTheLimitsAndKeepsTiltOverYaw) {
+  const model::SubAircraft sub = F450();
+  Rotors rotors(sub.rotors, Eigen::Vector3d(0.0, 0.0, 0.01));
+  RotorVector thrusts, speeds;
+  const Eigen::Vector3d torque(0.3, -0.2, 0.05);
+  EXPECT_FALSE(rotors.Mix(18.0, torque, &thrusts));
+  rotors.SpeedsForThrusts(thrusts, &speeds);
+  rotors.SetSpeeds(speeds);
+  Eigen::Vector3d force, made;
+  rotors.Wrench_S(&force, &made);
+  EXPECT_NEAR(-force.z(), 18.0, 1e-9);
+  EXPECT_LT((made - torque).norm(), 1e-9);
+
+  // a yaw demand no motor can meet is cut; roll and thrust survive
+  EXPECT_TRUE(rotors.Mix(18.0, Eigen::Vector3d(0.3, 0.0, 5.0), &thrusts));
+  rotors.SpeedsForThrusts(thrusts, &speeds);
+  rotors.SetSpeeds(speeds);
+  rotors.Wrench_S(&force, &made);
+  EXPECT_NEAR(made.x(), 0.3, 1e-9);
+  EXPECT_NEAR(-force.z(), 18.0, 1e-9);
+  EXPECT_GT(made.z(), 0.0);
+  EXPECT_LT(made.z(), 5.0);
+  for (int j = 0; j < 4; ++j) {
+    EXPECT_LE(thrusts[j], rotors.max_thrust_N() + 1e-12);
+    EXPECT_GE(thrusts[j], rotors.min_thrust_N() - 1e-12);
+  }
+}
+
+TEST(FlightController, AttitudeErrorGivesARateTowardTheSetpoint) {
+  const model::SubAircraft sub = F450();
+  Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());
+  FlightController controller(sub.flight_controller, sub.mass.inertia_B_kgm2, rotors);
+  const Eigen::Quaterniond level = Eigen::Quaterniond::Identity();
+  const Eigen::Quaterniond rolled(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()));
+  const Eigen::Vector3d rate = controller.RateSetpoint(rolled, level);
+  EXPECT_NEAR(rate.x(), 6.5 * 2.0 * std::sin(0.05), 1e-9);  // P on the quaternion error
+  EXPECT_NEAR(rate.y(), 0.0, 1e-12);
+  // a yaw error is served at the (lower) yaw gain
+  const Eigen::Quaterniond yawed(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()));
+  const double yaw_weight = 2.8 / 6.5;  // PX4: the yaw error is scaled into the tilt gain
+  EXPECT_NEAR(controller.RateSetpoint(yawed, level).z(), 2.0 * 2.8 / yaw_weight * std::sin(yaw_weight * 0.05),
+              1e-9);
+}
+
+// A single quadrotor as a one-link multibody, gravity off: the cascade turns it to a 30° roll setpoint.
+TEST(FlightController, ReachesAnAttitudeSetpointOnAFreeQuadrotor) {
+  const model::SubAircraft sub = F450();
+  model::MultibodyDescription description;
+  description.name = "quad";
+  description.links.push_back({"body", sub.mass, {}, ""});
+  WorldConfig config;
+  config.gravity_mps2 = 0.0;
+  config.ground = false;
+  const double dt = 0.001;
+  MultibodyWorld world(config, dt);
+  const int body = world.AddMultibody("quad", description, Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity());
+  Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());
+  FlightController controller(sub.flight_controller, sub.mass.inertia_B_kgm2, rotors);
+  SubAircraftSetpoint setpoint;
+  setpoint.thrust_N = 10.0;
+  setpoint.q_WS = Eigen::AngleAxisd(0.5236, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ());
+  double max_overshoot_rad = 0.0;
+  double error_at_1s_rad = 0.0;
+  for (int k = 0; k < 5000; ++k) {
+    if (k == 1000) error_at_1s_rad = world.body(body).q_WB.angularDistance(setpoint.q_WS);
+    const BodyState& state = world.body(body);
+    Eigen::Vector3d force_S, torque_S;
+    rotors.Wrench_S(&force_S, &torque_S);
+    world.AddTorque_W(body, state.q_WB * torque_S);  // no force: keep it in place
+    RotorVector thrusts, speeds;
+    controller.Update(setpoint, state.q_WB, state.q_WB.conjugate() * state.w_WB_W, dt, &thrusts);
+    rotors.SpeedsForThrusts(thrusts, &speeds);
+    rotors.Step(speeds, dt);
+    world.Step();
+    const double roll = std::atan2(2 * (world.body(body).q_WB.w() * world.body(body).q_WB.x() +
+                                        world.body(body).q_WB.y() * world.body(body).q_WB.z()),
+                                   1 - 2 * (std::pow(world.body(body).q_WB.x(), 2) + std::pow(world.body(body).q_WB.y(), 2)));
+    max_overshoot_rad = std::max(max_overshoot_rad, roll - 0.5236);
+  }
+  const double error_rad = world.body(body).q_WB.angularDistance(setpoint.q_WS);
+  std::printf("30 deg roll + 17 deg yaw step: error %.2f deg after 1 s, %.3f deg after 5 s, overshoot %.2f deg\n",
+              error_at_1s_rad * 180.0 / M_PI, error_rad * 180.0 / M_PI, max_overshoot_rad * 180.0 / M_PI);
+  EXPECT_LT(error_at_1s_rad, 2.0 * M_PI / 180.0);
+  EXPECT_LT(error_rad, 0.1 * M_PI / 180.0);
+  EXPECT_LT(max_overshoot_rad, 5.0 * M_PI / 180.0);
+}
+
+}  // namespace
+}  // namespace iapsim::physics

@@ -1,0 +1,143 @@
+#include "physics/simulation.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace iapsim::physics {
+
+Simulation::Simulation(const SimulationConfig& config)
+    : world_(config.world, config.step_s), gravity_W_(0.0, 0.0, config.world.gravity_mps2) {
+  vehicle_of_body_.assign(world_.body_count(), -1);
+  for (const auto& spec : config.vehicles) {
+    for (const auto& other : vehicles_) {
+      if (other->spec.name == spec.name) throw std::invalid_argument("vehicle '" + spec.name + "' is used twice");
+    }
+    auto sim = std::make_unique<VehicleSim>();
+    sim->spec = spec;
+    const Eigen::Quaterniond q_WP(Eigen::AngleAxisd(spec.yaw_rad, Eigen::Vector3d::UnitZ()));
+    VehicleOutput& out = sim->output;
+    out.platform_body = world_.AddMultibody(spec.name, spec.description, spec.p_WP_m, q_WP);
+    vehicle_of_body_.resize(world_.body_count(), static_cast<int>(vehicles_.size()));
+
+    const model::Vehicle& vehicle = spec.vehicle;
+    const Eigen::VectorXd hover_thrusts_N = vehicle.LevelHoverThrusts_N(config.world.gravity_mps2);
+    for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) {
+      const model::SubAircraft& sub = vehicle.sub_aircraft[i];
+      const int body = world_.FindBody(spec.name + "/" + sub.name);
+      if (body < 0) {
+        throw std::invalid_argument("vehicle '" + spec.name + "': its description has no link '" + sub.name + "'");
+      }
+      out.sub_aircraft_bodies.push_back(body);
+      SubAircraftSim s;
+      try {
+        s.rotors = std::make_unique<Rotors>(sub.rotors, sub.mass.com_B_m);
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument("vehicle '" + spec.name + "', " + sub.name + ": " + e.what());
+      }
+      s.controller = std::make_unique<FlightController>(sub.flight_controller, sub.mass.inertia_B_kgm2, *s.rotors);
+      const int n = s.rotors->count();
+      if (spec.initial_rotors == InitialRotors::kHover) {
+        RotorVector speeds;
+        s.rotors->SpeedsForThrusts(RotorVector::Constant(n, hover_thrusts_N[i] / n), &speeds);
+        s.rotors->SetSpeeds(speeds);
+        s.setpoint.thrust_N = hover_thrusts_N[i];
+      }
+      s.setpoint.q_WS = world_.body(body).q_WB;  // hold the initial attitude until commanded
+      sim->sub_aircraft.push_back(std::move(s));
+      SubAircraftOutput sub_out;
+      sub_out.rotor_speeds_rad_s = sim->sub_aircraft.back().rotors->speeds_rad_s();
+      out.sub_aircraft.push_back(sub_out);
+    }
+    vehicles_.push_back(std::move(sim));
+  }
+}
+
+Simulation::~Simulation() = default;
+
+bool Simulation::SetCommand(int v, int s, const SubAircraftSetpoint& setpoint) {
+  VehicleSim& vehicle = *vehicles_.at(v);
+  if (!setpoint.IsValid()) {
+    ++vehicle.output.invalid_commands;
+    return false;
+  }
+  vehicle.sub_aircraft.at(s).setpoint = setpoint;
+  return true;
+}
+
+void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
+  SubAircraftSim& sim = vehicle.sub_aircraft[s];
+  SubAircraftOutput& out = vehicle.output.sub_aircraft[s];
+  const int body = vehicle.output.sub_aircraft_bodies[s];
+  const BodyState& state = world_.body(body);
+  const double dt = world_.step_s();
+
+  Eigen::Vector3d force_S, torque_S;
+  if (sim.setpoint.mode == SubAircraftSetpoint::Mode::kThrustTorque) {
+    out.thrust_W_N = sim.setpoint.thrust_W_N;
+    out.torque_S_Nm = sim.setpoint.torque_S_Nm;
+    out.saturated = false;
+  } else {
+    // the rotors act with the speeds they have now; the controller then moves them for the next step
+    sim.rotors->Wrench_S(&force_S, &torque_S);
+    out.thrust_W_N = state.q_WB * force_S;
+    out.torque_S_Nm = torque_S;
+    RotorVector thrusts, speeds;
+    const Eigen::Vector3d w_WS_S = state.q_WB.conjugate() * state.w_WB_W;
+    out.saturated = sim.controller->Update(sim.setpoint, state.q_WB, w_WS_S, dt, &thrusts);
+    sim.rotors->SpeedsForThrusts(thrusts, &speeds);
+    sim.rotors->Step(speeds, dt);
+    out.rotor_speeds_rad_s = sim.rotors->speeds_rad_s();
+    if (out.saturated) ++vehicle.output.saturated_steps;
+  }
+  world_.AddForce_W(body, out.thrust_W_N);
+  const Eigen::Vector3d torque_W = state.q_WB * out.torque_S_Nm;
+  if (vehicle.spec.torque_reaction == TorqueReaction::kPlatform) {
+    world_.AddJointTorque_W(body, torque_W);
+  } else {
+    world_.AddTorque_W(body, torque_W);
+  }
+}
+
+void Simulation::Step() {
+  for (auto& vehicle : vehicles_) {
+    for (int s = 0; s < static_cast<int>(vehicle->sub_aircraft.size()); ++s) ApplySubAircraft(*vehicle, s);
+  }
+  world_.Step();
+  for (int v = 0; v < vehicle_count(); ++v) ComputeOutputs(v);
+}
+
+void Simulation::ComputeOutputs(int v) {
+  VehicleOutput& out = vehicles_[v]->output;
+  const BodyState& platform = world_.body(out.platform_body);
+  const Eigen::Matrix3d R_PW = platform.q_WB.conjugate().toRotationMatrix();
+  const std::vector<int>& subs = out.sub_aircraft_bodies;
+  const auto in_vehicle = [&](int body) { return body >= 0 && vehicle_of_body_[body] == v; };
+
+  out.external_force_W_N.setZero();
+  out.external_torque_W_Nm.setZero();
+  for (auto& sub : out.sub_aircraft) sub.contact_force_W_N.setZero();
+  for (const Contact& contact : world_.contacts()) {
+    const bool a_in = in_vehicle(contact.body_a);
+    if (a_in == in_vehicle(contact.body_b)) continue;  // not touching the vehicle, or touching itself
+    const Eigen::Vector3d force_W = a_in ? contact.force_on_a_W_N : Eigen::Vector3d(-contact.force_on_a_W_N);
+    const int body = a_in ? contact.body_a : contact.body_b;
+    out.external_force_W_N += force_W;
+    out.external_torque_W_Nm += (contact.point_W_m - platform.p_WBcom_m).cross(force_W);
+    for (size_t s = 0; s < subs.size(); ++s) {
+      if (subs[s] == body) out.sub_aircraft[s].contact_force_W_N += force_W;
+    }
+  }
+  out.external_force_P_N = R_PW * out.external_force_W_N;
+  out.external_torque_P_Nm = R_PW * out.external_torque_W_Nm;
+
+  // Newton's law on each sub-aircraft: what the joint pushed on it is what it did not get from elsewhere
+  for (size_t s = 0; s < subs.size(); ++s) {
+    SubAircraftOutput& sub = out.sub_aircraft[s];
+    const double m = world_.mass_kg(subs[s]);
+    const Eigen::Vector3d joint_on_sub_W =
+        m * world_.body(subs[s]).a_WBcom_W - sub.thrust_W_N - m * gravity_W_ - sub.contact_force_W_N;
+    sub.joint_force_P_N = R_PW * (-joint_on_sub_W);
+  }
+}
+
+}  // namespace iapsim::physics

@@ -1,0 +1,240 @@
+// The Bullet world and the IAP simulation: kinematics as described, conservation laws, contact forces
+// against analytic values, collision filtering, hover.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "model/urdf.h"
+#include "model/vehicle.h"
+#include "physics/multibody_world.h"
+#include "physics/simulation.h"
+
+namespace iapsim::physics {
+namespace {
+
+model::Vehicle LoadShipped(const std::string& name) {
+  return model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/" + name + ".yaml");
+}
+
+VehicleSpec Spec(const std::string& name, const Eigen::Vector3d& p_WP_m, double yaw_rad = 0.0) {
+  VehicleSpec spec;
+  spec.name = "iap";
+  spec.vehicle = LoadShipped(name);
+  spec.description = model::ParseUrdf(model::GenerateUrdf(spec.vehicle), name + ".urdf");
+  spec.p_WP_m = p_WP_m;
+  spec.yaw_rad = yaw_rad;
+  return spec;
+}
+
+TEST(MultibodyWorld, BodiesStartWhereTheVehicleDescriptionPutsThem) {
+  for (const std::string name : {"three_star", "three_square", "two_line", "three_line", "three_star_fixed"}) {
+    SCOPED_TRACE(name);
+    SimulationConfig config;
+    config.world.ground = false;
+    config.vehicles.push_back(Spec(name, Eigen::Vector3d(1.0, -2.0, -3.0), 0.7));
+    const Simulation sim(config);
+    const MultibodyWorld& world = sim.world();
+    const VehicleOutput& out = sim.output(0);
+    const Eigen::Quaterniond q_WP(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()));
+    EXPECT_LT((world.body(out.platform_body).p_WB_m - Eigen::Vector3d(1.0, -2.0, -3.0)).norm(), 1e-12);
+    EXPECT_LT(world.body(out.platform_body).q_WB.angularDistance(q_WP), 1e-12);
+    const model::Vehicle& vehicle = sim.vehicle(0).vehicle;
+    for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) {
+      const auto& sub = vehicle.sub_aircraft[i];
+      const BodyState& state = world.body(out.sub_aircraft_bodies[i]);
+      // equation (1): p_i = p_0 + R_0 d_i, and the sub-aircraft's initial yaw relative to P
+      EXPECT_LT((state.p_WB_m - (Eigen::Vector3d(1.0, -2.0, -3.0) + q_WP * sub.joint_P_m)).norm(), 1e-12);
+      const Eigen::Quaterniond q_WS = q_WP * Eigen::AngleAxisd(sub.initial_yaw_rad, Eigen::Vector3d::UnitZ());
+      EXPECT_LT(state.q_WB.angularDistance(q_WS), 1e-12);
+    }
+    EXPECT_TRUE(world.contacts().empty());
+  }
+}
+
+// Gravity off, a spin-up with internal torques only, then free flight: linear and angular momentum stay
+// what they were, kinetic energy stays put, joints stay together (eq. (1) holds).
+TEST(MultibodyWorld, FreeFloatingIapConservesMomentumAndKeepsItsJoints) {
+  SimulationConfig config;
+  config.world.ground = false;
+  config.world.gravity_mps2 = 0.0;
+  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d::Zero()));
+  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+  Simulation sim(config);
+  const VehicleOutput& out = sim.output(0);
+  MultibodyWorld& world = sim.mutable_world();
+  SubAircraftSetpoint idle;
+  idle.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, idle);
+  // a push: equal and opposite forces on two sub-aircraft, a joint torque on the third
+  for (int k = 0; k < 200; ++k) {
+    world.AddForce_W(out.sub_aircraft_bodies[0], Eigen::Vector3d(0.0, 2.0, 0.5));
+    world.AddForce_W(out.sub_aircraft_bodies[1], Eigen::Vector3d(0.0, -2.0, -0.5));
+    world.AddJointTorque_W(out.sub_aircraft_bodies[2], Eigen::Vector3d(0.05, 0.02, 0.1));
+    sim.Step();
+  }
+  const auto momenta = [&](Eigen::Vector3d* linear, Eigen::Vector3d* angular, double* energy) {
+    linear->setZero();
+    angular->setZero();
+    *energy = 0.0;
+    std::vector<int> bodies = out.sub_aircraft_bodies;
+    bodies.push_back(out.platform_body);
+    for (const int b : bodies) {
+      const BodyState& s = world.body(b);
+      const double m = world.mass_kg(b);
+      const Eigen::Matrix3d R = s.q_WB.toRotationMatrix();
+      const Eigen::Matrix3d I_W = R * world.inertia_B_kgm2(b) * R.transpose();
+      *linear += m * s.v_WBcom_W;
+      *angular += s.p_WBcom_m.cross(m * s.v_WBcom_W) + I_W * s.w_WB_W;
+      *energy += 0.5 * m * s.v_WBcom_W.squaredNorm() + 0.5 * s.w_WB_W.dot(I_W * s.w_WB_W);
+    }
+  };
+  Eigen::Vector3d p0, L0, p1, L1;
+  double E0, E1;
+  momenta(&p0, &L0, &E0);
+  ASSERT_GT(L0.norm(), 0.01);  // it does spin
+  ASSERT_GT(E0, 0.01);
+  double joint_drift_m = 0.0;
+  for (int k = 0; k < 5000; ++k) {
+    sim.Step();
+    const BodyState& platform = world.body(out.platform_body);
+    for (size_t i = 0; i < 3; ++i) {
+      const Eigen::Vector3d expected = platform.p_WB_m + platform.q_WB * sim.vehicle(0).vehicle.sub_aircraft[i].joint_P_m;
+      joint_drift_m = std::max(joint_drift_m, (world.body(out.sub_aircraft_bodies[i]).p_WB_m - expected).norm());
+    }
+  }
+  momenta(&p1, &L1, &E1);
+  std::printf("free-floating three-star, 5 s: |dp| %.2e kg m/s, |dL| %.2e (of %.3f) kg m^2/s, dE/E %.2e, "
+              "joint drift %.2e m\n",
+              (p1 - p0).norm(), (L1 - L0).norm(), L0.norm(), std::abs(E1 - E0) / E0, joint_drift_m);
+  // Bullet integrates joint coordinates (semi-implicit Euler), so momentum holds to O(step), not exactly
+  EXPECT_LT((p1 - p0).norm() / sim.vehicle(0).vehicle.TotalMass_kg(), 1e-5);
+  EXPECT_LT((L1 - L0).norm(), 1e-3 * L0.norm());
+  EXPECT_LT(std::abs(E1 - E0), 1e-2 * E0);
+  EXPECT_LT(joint_drift_m, 1e-9);
+}
+
+TEST(MultibodyWorld, ABoxAtRestReadsItsWeightAndFrictionOpposesSliding) {
+  WorldConfig config;
+  WorldObject box;
+  box.name = "box";
+  model::Shape shape;
+  shape.box_size_m = Eigen::Vector3d(0.4, 0.4, 0.2);
+  box.shapes = {shape};
+  box.mass_kg = 2.0;
+  box.p_WO_m = Eigen::Vector3d(0.0, 0.0, -0.1);
+  box.material.friction = 0.5;
+  config.objects = {box};
+  MultibodyWorld world(config, 0.001);
+  const int id = world.FindBody("box");
+  for (int k = 0; k < 500; ++k) world.Step();
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  for (const Contact& c : world.contacts()) force += c.body_a == id ? c.force_on_a_W_N : -c.force_on_a_W_N;
+  EXPECT_NEAR(force.z(), -2.0 * 9.81, 1e-6);  // the ground pushes up (−z in NED) with the weight
+  EXPECT_NEAR(force.head<2>().norm(), 0.0, 1e-6);
+
+  // pushed along +x harder than friction can hold: friction points along −x and equals μ m g. A single
+  // step's friction impulse varies (sequential impulses over the manifold's points); its mean over the push
+  // is what moved the box.
+  Eigen::Vector3d mean_force = Eigen::Vector3d::Zero();
+  const int steps = 200;
+  for (int k = 0; k < steps; ++k) {
+    world.AddForce_W(id, Eigen::Vector3d(15.0, 0.0, 0.0));
+    world.Step();
+    for (const Contact& c : world.contacts()) {
+      mean_force += (c.body_a == id ? c.force_on_a_W_N : Eigen::Vector3d(-c.force_on_a_W_N)) / steps;
+    }
+  }
+  // within 1%: the box rocks a little on its leading edge while it slides
+  EXPECT_NEAR(world.body(id).v_WB_W.x(), (15.0 - 0.5 * 2.0 * 9.81) / 2.0 * steps * 0.001, 0.005);
+  EXPECT_NEAR(mean_force.x(), -0.5 * 2.0 * 9.81, 0.1);
+  EXPECT_NEAR(mean_force.z(), -2.0 * 9.81, 0.2);
+}
+
+TEST(Simulation, AnIapRestingOnABoxReadsItsWeightAsExternalWrench) {
+  SimulationConfig config;
+  WorldObject stand;
+  stand.name = "stand";
+  model::Shape shape;
+  shape.box_size_m = Eigen::Vector3d(0.3, 0.3, 0.5);
+  stand.shapes = {shape};
+  stand.p_WO_m = Eigen::Vector3d(0.0, 0.0, -0.25);  // static, top at z = −0.5
+  config.world.objects = {stand};
+  // platform box 0.05 m tall: its bottom on the stand's top
+  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -0.5 - 0.025 - 0.002)));
+  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+  Simulation sim(config);
+  SubAircraftSetpoint off;
+  off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, off);
+  for (int k = 0; k < 3000; ++k) sim.Step();
+  const VehicleOutput& out = sim.output(0);
+  const double weight_N = sim.vehicle(0).vehicle.TotalMass_kg() * 9.81;
+  std::printf("three-star resting on a stand: external force %.4f %.4f %.4f N (weight %.4f N)\n",
+              out.external_force_W_N.x(), out.external_force_W_N.y(), out.external_force_W_N.z(), weight_N);
+  EXPECT_NEAR(out.external_force_W_N.z(), -weight_N, 1e-3 * weight_N);
+  EXPECT_LT(out.external_force_W_N.head<2>().norm(), 1e-3 * weight_N);
+  // the stand is under the platform's centre and the IAP is symmetric: no tipping moment
+  EXPECT_LT(out.external_torque_W_Nm.head<2>().norm(), 0.02);
+  for (const auto& sub : out.sub_aircraft) {  // each joint carries one sub-aircraft's weight
+    EXPECT_NEAR(sub.joint_force_P_N.z(), 1.6 * 9.81, 1e-3);
+  }
+}
+
+TEST(Simulation, CollisionFiltersLetAVehiclePassThroughAnObject) {
+  SimulationConfig config;
+  config.world.ground = false;
+  WorldObject ghost;
+  ghost.name = "ghost";
+  model::Shape shape;
+  shape.box_size_m = Eigen::Vector3d(4.0, 4.0, 0.1);
+  ghost.shapes = {shape};
+  ghost.p_WO_m = Eigen::Vector3d(0.0, 0.0, 0.5);
+  ghost.filter.group = 4;
+  ghost.filter.mask = ~1;  // collides with everything but group 1 (vehicles)
+  config.world.objects = {ghost};
+  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d::Zero()));
+  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+  Simulation sim(config);
+  SubAircraftSetpoint off;
+  off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, off);
+  for (int k = 0; k < 1000; ++k) sim.Step();  // falls 4.9 m through the slab at 0.5 m
+  EXPECT_GT(sim.world().body(sim.output(0).platform_body).p_WB_m.z(), 1.0);
+  EXPECT_TRUE(sim.world().contacts().empty());
+}
+
+// Constant level attitude setpoints and each sub-aircraft's share of the weight (the allocation (17) for
+// a level hover of a symmetric IAP): the IAP stays put.
+TEST(Simulation, ShippedIapsHoverOnTheirWeightShare) {
+  for (const std::string name : {"three_star", "three_square", "two_line", "three_star_fixed"}) {
+    SCOPED_TRACE(name);
+    SimulationConfig config;
+    config.vehicles.push_back(Spec(name, Eigen::Vector3d(0.0, 0.0, -2.0)));
+    Simulation sim(config);
+    for (int k = 0; k < 10000; ++k) sim.Step();
+    const BodyState& platform = sim.world().body(sim.output(0).platform_body);
+    std::printf("%s hover 10 s: platform moved %.2e m, tilted %.2e deg\n", name.c_str(),
+                (platform.p_WB_m - Eigen::Vector3d(0.0, 0.0, -2.0)).norm(),
+                platform.q_WB.angularDistance(Eigen::Quaterniond::Identity()) * 180.0 / M_PI);
+    EXPECT_LT((platform.p_WB_m - Eigen::Vector3d(0.0, 0.0, -2.0)).norm(), 0.01);
+    EXPECT_EQ(sim.output(0).saturated_steps, 0u);
+  }
+}
+
+TEST(Simulation, RejectsInvalidCommandsAndHoldsTheLastOne) {
+  SimulationConfig config;
+  config.vehicles.push_back(Spec("two_line", Eigen::Vector3d(0.0, 0.0, -2.0)));
+  Simulation sim(config);
+  SubAircraftSetpoint bad;
+  bad.thrust_N = std::nan("");
+  EXPECT_FALSE(sim.SetCommand(0, 0, bad));
+  bad.thrust_N = 10.0;
+  bad.q_WS.coeffs() << 0.0, 0.0, 0.0, 2.0;
+  EXPECT_FALSE(sim.SetCommand(0, 1, bad));
+  EXPECT_EQ(sim.output(0).invalid_commands, 2u);
+  for (int k = 0; k < 1000; ++k) sim.Step();
+  EXPECT_TRUE(sim.world().body(sim.output(0).platform_body).p_WB_m.allFinite());
+}
+
+}  // namespace
+}  // namespace iapsim::physics
