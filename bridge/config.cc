@@ -1,6 +1,7 @@
 #include "bridge/config.h"
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 
 namespace iapsim::bridge {
@@ -171,6 +172,24 @@ void ApplyOverride(YAML::Node root, const std::string& assignment, const std::st
     chain.push_back(next);
   }
   chain.back()[keys.back()] = value;
+}
+
+std::string ReadFilePath(YamlMap& map, const std::string& key, const std::string& relative_to) {
+  namespace fs = std::filesystem;
+  std::string name;
+  map.Required(key, &name);
+  const fs::path path(name);
+  std::vector<fs::path> candidates{path};
+  if (!path.is_absolute()) candidates = {fs::path(relative_to).parent_path() / path, fs::current_path() / path};
+  for (const auto& candidate : candidates) {
+    std::error_code error;
+    if (fs::is_regular_file(candidate, error)) {
+      const std::string absolute = fs::canonical(candidate).string();
+      map.SetResolved(key, YAML::Node(absolute));
+      return absolute;
+    }
+  }
+  map.Fail(key, "no file '" + name + "' (looked next to " + relative_to + " and in the working folder)");
 }
 
 }  // namespace iapsim::bridge

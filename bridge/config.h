@@ -62,6 +62,9 @@ class YamlMap {
 
   /// Unknown keys are errors (with a spelling suggestion). Call after reading every key.
   void Finish();
+  /// Records `value` as the resolved value of `key` (for values the reader completes, such as a path made
+  /// absolute, or a list it read from Raw()).
+  void SetResolved(const std::string& key, const YAML::Node& value) { resolved_[key] = value; }
   /// What was read, defaults included, in reading order.
   YAML::Node Resolved() const { return resolved_; }
 
@@ -98,6 +101,11 @@ class YamlMap {
   std::set<std::string> known_;
   YAML::Node resolved_;
 };
+
+/// Reads the file name under `key` (required) and finds it: absolute, or relative to the folder of
+/// `relative_to` (the scenario file), or to the working folder. Records the absolute path as the resolved
+/// value (so a run restarts from its scenario.resolved.yaml) and returns it; fails naming the key.
+std::string ReadFilePath(YamlMap& map, const std::string& key, const std::string& relative_to);
 
 /// Loads a YAML file; a missing or malformed file is a ConfigError naming it (and the line of a syntax
 /// error).

@@ -6,6 +6,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <geometry_msgs/WrenchStamped.h>
+#include <iapsim_msgs/ContactArray.h>
 #include <iapsim_msgs/Hello.h>
 #include <iapsim_msgs/IapCommand.h>
 #include <iapsim_msgs/IapState.h>
@@ -39,6 +40,7 @@ void Register(std::map<std::string, RegisteredType>* types) {
 
 std::map<std::string, RegisteredType> BuildRegistry() {
   std::map<std::string, RegisteredType> types;
+  Register<iapsim_msgs::ContactArray>(&types);
   Register<iapsim_msgs::Hello>(&types);
   Register<iapsim_msgs::IapCommand>(&types);
   Register<iapsim_msgs::IapState>(&types);

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "bridge/control_channel.h"
+#include "bridge/eigen_msgs.h"
 
 namespace iapsim::bridge {
 namespace {
@@ -33,11 +34,6 @@ extern "C" void OnStopSignal(int signal) {
   alarm(3);  // backstop: a process that cannot wind down within 3 s is ended by SIGALRM's default action
 }
 
-ros::Time ToRosTime(int64_t ns) {
-  ros::Time t;
-  t.fromNSec(static_cast<uint64_t>(ns));
-  return t;
-}
 
 nlohmann::json BusReport(const BusStats& stats) {
   nlohmann::json topics = nlohmann::json::object();

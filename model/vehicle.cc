@@ -8,9 +8,10 @@
 #include "bridge/config.h"
 
 namespace iapsim::model {
-namespace {
 
 using bridge::YamlMap;
+
+namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
@@ -33,11 +34,6 @@ std::vector<double> ReadNumbers(YamlMap& map, const std::string& key, const std:
   return values;
 }
 
-void OptionalVector3(YamlMap& map, const std::string& key, Eigen::Vector3d* value, double scale = 1.0) {
-  if (!map.Has(key)) return;
-  const auto v = ReadNumbers(map, key, {3});
-  *value = Eigen::Vector3d(v[0], v[1], v[2]) * scale;
-}
 
 // [xx, yy, zz] or [xx, yy, zz, xy, xz, yz]; must be a physical inertia (positive definite, triangle rule)
 void OptionalInertia(YamlMap& map, const std::string& key, Eigen::Matrix3d* inertia) {
@@ -106,18 +102,6 @@ Shape ReadShape(YamlMap& map) {
   return shape;
 }
 
-void OptionalShapes(YamlMap& map, const std::string& key, const std::string& file,
-                    std::vector<Shape>* shapes) {
-  if (!map.Has(key)) return;
-  const YAML::Node node = map.Raw(key);
-  if (!node.IsSequence()) map.Fail(key, "expected a list of shapes");
-  shapes->clear();
-  for (size_t i = 0; i < node.size(); ++i) {
-    YamlMap shape(node[i], file, map.PathOf(key) + "[" + std::to_string(i) + "]");
-    shapes->push_back(ReadShape(shape));
-  }
-}
-
 // rotors: {layout: x | plus, arm_m, thrust_coefficient, torque_coefficient, motor_time_constant_s,
 //          speed_rad_s: [min, max]}; motor numbering and spin follow PX4's quadrotor geometries
 void ReadRotors(YamlMap& map, RotorSet* rotors) {
@@ -164,12 +148,12 @@ void ReadFlightController(YamlMap& map, FlightControllerGains* gains) {
 }
 
 // Fills `sub` from `map`, keeping what is already there (the defaults) for keys the map leaves out.
-void ReadSubAircraft(YamlMap& map, const std::string& file, SubAircraft* sub) {
+void ReadSubAircraft(YamlMap& map, SubAircraft* sub) {
   ReadMass(map, &sub->mass);
   std::string joint = sub->joint == JointType::kFixed ? "fixed" : "spherical";
   map.OptionalChoice("joint", &joint, {"spherical", "fixed"});
   sub->joint = joint == "fixed" ? JointType::kFixed : JointType::kSpherical;
-  OptionalShapes(map, "collision", file, &sub->collision);
+  OptionalShapes(map, "collision", &sub->collision);
   map.Optional("mesh", &sub->mesh);
   if (map.Has("rotors")) {
     YamlMap rotors = map.Map("rotors");
@@ -182,6 +166,23 @@ void ReadSubAircraft(YamlMap& map, const std::string& file, SubAircraft* sub) {
 }
 
 }  // namespace
+
+void OptionalVector3(YamlMap& map, const std::string& key, Eigen::Vector3d* value, double scale) {
+  if (!map.Has(key)) return;
+  const auto v = ReadNumbers(map, key, {3});
+  *value = Eigen::Vector3d(v[0], v[1], v[2]) * scale;
+}
+
+void OptionalShapes(YamlMap& map, const std::string& key, std::vector<Shape>* shapes) {
+  if (!map.Has(key)) return;
+  const YAML::Node node = map.Raw(key);
+  if (!node.IsSequence()) map.Fail(key, "expected a list of shapes");
+  shapes->clear();
+  for (size_t i = 0; i < node.size(); ++i) {
+    YamlMap shape(node[i], map.file(), map.PathOf(key) + "[" + std::to_string(i) + "]");
+    shapes->push_back(ReadShape(shape));
+  }
+}
 
 double Vehicle::TotalMass_kg() const {
   double m = platform.mass_kg;
@@ -229,7 +230,7 @@ Vehicle LoadVehicle(const std::string& path) {
   YamlMap platform = top.Map("platform");
   ReadMass(platform, &vehicle.platform);
   CheckMass(platform, vehicle.platform, "the platform");
-  OptionalShapes(platform, "collision", path, &vehicle.platform_collision);
+  OptionalShapes(platform, "collision", &vehicle.platform_collision);
   platform.Optional("mesh", &vehicle.platform_mesh);
   platform.Finish();
 
@@ -244,7 +245,7 @@ Vehicle LoadVehicle(const std::string& path) {
       CheckMass(map, tool.mass, "tool '" + tool.name + "'");
       OptionalVector3(map, "origin_m", &tool.origin_P_m);
       OptionalVector3(map, "rpy_deg", &tool.rpy_P_rad, kDegToRad);
-      OptionalShapes(map, "collision", path, &tool.collision);
+      OptionalShapes(map, "collision", &tool.collision);
       map.Optional("mesh", &tool.mesh);
       map.Finish();
       vehicle.tools.push_back(tool);
@@ -259,10 +260,10 @@ Vehicle LoadVehicle(const std::string& path) {
     const std::string base_path =
         base.empty() || base[0] == '/' ? base : (std::filesystem::path(path).parent_path() / base).string();
     YamlMap base_map(bridge::LoadYamlFile(base_path), base_path);
-    ReadSubAircraft(base_map, base_path, &defaults);
+    ReadSubAircraft(base_map, &defaults);
     base_map.Finish();
   }
-  ReadSubAircraft(defaults_map, path, &defaults);
+  ReadSubAircraft(defaults_map, &defaults);
   defaults_map.Finish();
 
   const YAML::Node subs = top.Raw("sub_aircraft");
@@ -274,7 +275,7 @@ Vehicle LoadVehicle(const std::string& path) {
     SubAircraft sub = defaults;
     sub.name = "sub" + std::to_string(i + 1);
     map.Optional("name", &sub.name);
-    ReadSubAircraft(map, path, &sub);
+    ReadSubAircraft(map, &sub);
     CheckMass(map, sub.mass, "sub-aircraft '" + sub.name + "'");
     if (sub.rotors.hub_S_m.empty()) {
       map.Fail("rotors", "is required (here or in sub_aircraft_defaults): the sub-aircraft's rotor model");

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "bridge/config.h"
+
 namespace iapsim::model {
 
 /// A collision (and default visual) shape, placed in its body's frame.
@@ -94,6 +96,13 @@ struct Vehicle {
   /// about the centre of mass, of least norm (equal shares for a symmetric IAP).
   Eigen::VectorXd LevelHoverThrusts_N(double gravity_mps2) const;
 };
+
+/// YAML readers shared by the configuration files that place shapes and frames (vehicles, worlds).
+/// `value` keeps its default when the key is absent; `scale` converts units (degrees to radians).
+void OptionalVector3(bridge::YamlMap& map, const std::string& key, Eigen::Vector3d* value, double scale = 1.0);
+/// A list of shapes: each {box: [x, y, z]} | {cylinder: {radius_m, length_m}} | {sphere: {radius_m}}, with
+/// optional origin_m and rpy_deg.
+void OptionalShapes(bridge::YamlMap& map, const std::string& key, std::vector<Shape>* shapes);
 
 /// URDF's roll-pitch-yaw convention: R = Rz(yaw) Ry(pitch) Rx(roll).
 Eigen::Matrix3d RotationFromRpy(const Eigen::Vector3d& rpy_rad);

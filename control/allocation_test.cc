@@ -1,0 +1,67 @@
+#include "control/allocation.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace iapsim::control {
+namespace {
+
+model::Vehicle Shipped(const std::string& name) {
+  return model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/" + name + ".yaml");
+}
+
+TEST(Allocation, RankTellsFullyFromUnderActuated) {
+  EXPECT_TRUE(Allocation(Shipped("three_star")).fully_actuated());
+  EXPECT_TRUE(Allocation(Shipped("three_square")).fully_actuated());
+  const Allocation two_line(Shipped("two_line"));  // collinear joints, equation (8)
+  EXPECT_EQ(two_line.rank(), 5);
+  EXPECT_EQ(Allocation(Shipped("three_line")).rank(), 5);
+}
+
+TEST(Allocation, PseudoInverseIsMoorePenrose) {
+  for (const std::string name : {"three_star", "two_line"}) {
+    const Allocation a(Shipped(name));
+    const Eigen::MatrixXd& B = a.B();
+    const Eigen::MatrixXd& P = a.B_pinv();
+    EXPECT_LT((B * P * B - B).norm(), 1e-10) << name;
+    EXPECT_LT((P * B * P - P).norm(), 1e-10) << name;
+    EXPECT_LT((B * P - (B * P).transpose()).norm(), 1e-10) << name;
+    EXPECT_LT((P * B - (P * B).transpose()).norm(), 1e-10) << name;
+  }
+}
+
+TEST(Allocation, HoverThrustsCarryTheWeightWithNoMoment) {
+  for (const std::string name : {"three_star", "three_square", "two_line", "three_line"}) {
+    SCOPED_TRACE(name);
+    const model::Vehicle vehicle = Shipped(name);
+    const Allocation a(vehicle);
+    const Eigen::Quaterniond level = Eigen::Quaterniond::Identity();
+    const Eigen::VectorXd thrusts = a.Allocate(HoverWrench(vehicle, level, 9.81));
+    Eigen::Vector3d force = Eigen::Vector3d::Zero(), moment = Eigen::Vector3d::Zero();
+    const Eigen::Vector3d d_0 = vehicle.CenterOfMass_P_m();
+    for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) {
+      const Eigen::Vector3d f = thrusts.segment<3>(3 * i);
+      force += f;
+      moment += (vehicle.sub_aircraft[i].joint_P_m - d_0).cross(f);
+    }
+    EXPECT_LT((force + vehicle.TotalMass_kg() * 9.81 * Eigen::Vector3d::UnitZ()).norm(), 1e-9);
+    EXPECT_LT(moment.norm(), 1e-9);
+    // the same split as the level trim the physics starts vehicles in
+    const Eigen::VectorXd trim = vehicle.LevelHoverThrusts_N(9.81);
+    for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) EXPECT_NEAR(-thrusts[3 * i + 2], trim[i], 1e-9);
+  }
+}
+
+TEST(Allocation, RollPitchOfEquation18PointTheThrust) {
+  for (const double yaw : {0.0, 0.7, -2.5, M_PI}) {
+    const Eigen::Vector3d thrust_W(3.0, -4.0, -18.0);
+    const Eigen::Vector2d rp = RollPitchForThrust(thrust_W, yaw);
+    const Eigen::Quaterniond q = AttitudeFromEuler(rp[0], rp[1], yaw);
+    // FRD: thrust acts along −z of the sub-aircraft
+    EXPECT_LT((q * Eigen::Vector3d(0.0, 0.0, -1.0) - thrust_W.normalized()).norm(), 1e-12) << yaw;
+  }
+}
+
+}  // namespace
+}  // namespace iapsim::control

@@ -1,0 +1,155 @@
+#include "physics/physics_config.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "model/urdf.h"
+#include "model/vehicle.h"
+
+namespace iapsim::physics {
+namespace {
+
+using bridge::YamlMap;
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+Material ReadMaterial(YamlMap& map, Material material) {
+  map.OptionalInRange("friction", &material.friction, 0.0, 10.0);
+  map.OptionalInRange("restitution", &material.restitution, 0.0, 1.0);
+  map.OptionalInRange("contact_stiffness_N_per_m", &material.contact_stiffness_N_per_m, 0.0, 1e12);
+  map.OptionalInRange("contact_damping_Ns_per_m", &material.contact_damping_Ns_per_m, 0.0, 1e12);
+  return material;
+}
+
+CollisionFilter ReadFilter(YamlMap& map) {
+  CollisionFilter filter;
+  map.Optional("group", &filter.group);
+  map.Optional("mask", &filter.mask);
+  if (filter.group == 0) map.Fail("group", "must have at least one bit set");
+  map.Finish();
+  return filter;
+}
+
+void ReadPose(YamlMap& map, Eigen::Vector3d* p_m, Eigen::Quaterniond* q) {
+  model::OptionalVector3(map, "position_m", p_m);
+  Eigen::Vector3d rpy = Eigen::Vector3d::Zero();
+  model::OptionalVector3(map, "rpy_deg", &rpy, kDegToRad);
+  *q = Eigen::Quaterniond(model::RotationFromRpy(rpy));
+}
+
+WorldObject ReadObject(YamlMap& map) {
+  WorldObject object;
+  map.Required("name", &object.name);
+  model::OptionalShapes(map, "shapes", &object.shapes);
+  if (object.shapes.empty()) map.Fail("shapes", "an object needs at least one shape");
+  ReadPose(map, &object.p_WO_m, &object.q_WO);
+  map.OptionalInRange("mass_kg", &object.mass_kg, 0.0, 1e6);
+  model::OptionalVector3(map, "inertia_kgm2", &object.inertia_kgm2);
+  if (map.Has("material")) {
+    YamlMap material = map.Map("material");
+    object.material = ReadMaterial(material, object.material);
+    material.Finish();
+  }
+  if (map.Has("collision")) {
+    YamlMap filter = map.Map("collision");
+    object.filter = ReadFilter(filter);
+  }
+  map.Finish();
+  return object;
+}
+
+WorldConfig ReadWorld(YamlMap& map) {
+  WorldConfig world;
+  map.OptionalInRange("gravity_mps2", &world.gravity_mps2, 0.0, 100.0);
+  map.OptionalInRange("solver_iterations", &world.solver_iterations, 1, 10000);
+  if (map.Has("ground")) {
+    YamlMap ground = map.Map("ground");
+    ground.Optional("enabled", &world.ground);
+    ground.Optional("z_m", &world.ground_z_m);
+    world.ground_material = ReadMaterial(ground, world.ground_material);
+    ground.Finish();
+  }
+  if (map.Has("objects")) {
+    const YAML::Node objects = map.Raw("objects");
+    if (!objects.IsSequence()) map.Fail("objects", "expected a list of objects");
+    YAML::Node resolved;
+    for (size_t i = 0; i < objects.size(); ++i) {
+      YamlMap object(objects[i], map.file(), map.PathOf("objects") + "[" + std::to_string(i) + "]");
+      world.objects.push_back(ReadObject(object));
+      for (const auto& other : world.objects) {
+        if (&other != &world.objects.back() && other.name == world.objects.back().name) {
+          object.Fail("name", "'" + other.name + "' is used twice");
+        }
+      }
+      resolved.push_back(object.Resolved());
+    }
+    map.SetResolved("objects", resolved);
+  }
+  map.Finish();
+  return world;
+}
+
+VehicleSpec ReadVehicle(YamlMap& map, const std::string& scenario_file, std::string* urdf_path) {
+  VehicleSpec spec;
+  map.Required("name", &spec.name);
+  if (spec.name.empty() || spec.name.find_first_of("/ ") != std::string::npos) {
+    map.Fail("name", "must be a non-empty topic name part (no '/' or spaces)");
+  }
+  const std::string file = bridge::ReadFilePath(map, "file", scenario_file);
+  spec.vehicle = model::LoadVehicle(file);
+  if (map.Has("urdf")) {  // a hand-written URDF instead of the generated one; link names must match
+    *urdf_path = bridge::ReadFilePath(map, "urdf", scenario_file);
+    try {
+      spec.description = model::LoadUrdfFile(*urdf_path);
+    } catch (const std::invalid_argument& e) {
+      map.Fail("urdf", e.what());
+    }
+  } else {
+    spec.description = model::ParseUrdf(model::GenerateUrdf(spec.vehicle), file + " (generated URDF)");
+  }
+  model::OptionalVector3(map, "position_m", &spec.p_WP_m);
+  double yaw_deg = 0.0;
+  map.OptionalInRange("yaw_deg", &yaw_deg, -360.0, 360.0);
+  spec.yaw_rad = yaw_deg * kDegToRad;
+  std::string rotors = "hover";
+  map.OptionalChoice("rotors", &rotors, {"hover", "idle"});
+  spec.initial_rotors = rotors == "hover" ? InitialRotors::kHover : InitialRotors::kIdle;
+  std::string reaction = "air";
+  map.OptionalChoice("torque_reaction", &reaction, {"air", "platform"});
+  spec.torque_reaction = reaction == "air" ? TorqueReaction::kAir : TorqueReaction::kPlatform;
+  map.Finish();
+  return spec;
+}
+
+}  // namespace
+
+PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_file, double publish_step_s) {
+  PhysicsConfig config;
+  params.OptionalInRange("substeps", &config.substeps, 1, 10000);
+  params.Optional("publish_contacts", &config.publish_contacts);
+  config.simulation.step_s = publish_step_s / config.substeps;
+  YamlMap world = params.Map("world");
+  config.simulation.world = ReadWorld(world);
+
+  const YAML::Node vehicles = params.Raw("vehicles");
+  if (!vehicles || !vehicles.IsSequence() || vehicles.size() == 0) {
+    params.Fail("vehicles", "expected a list of vehicles ({name, file, position_m, ...})");
+  }
+  YAML::Node resolved;
+  for (size_t i = 0; i < vehicles.size(); ++i) {
+    YamlMap vehicle(vehicles[i], params.file(), "vehicles[" + std::to_string(i) + "]");
+    std::string urdf;
+    config.simulation.vehicles.push_back(ReadVehicle(vehicle, scenario_file, &urdf));
+    config.urdf.push_back(urdf);
+    for (size_t j = 0; j < i; ++j) {
+      if (config.simulation.vehicles[j].name == config.simulation.vehicles[i].name) {
+        vehicle.Fail("name", "'" + config.simulation.vehicles[i].name + "' is used twice");
+      }
+    }
+    resolved.push_back(vehicle.Resolved());
+  }
+  params.SetResolved("vehicles", resolved);
+  return config;
+}
+
+}  // namespace iapsim::physics

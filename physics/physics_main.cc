@@ -1,0 +1,250 @@
+// iapsim_physics: the physics process. Owns the clock: at every step k it advances the world by the clock
+// step (in `substeps` physics steps) and publishes the state at t_k; the commands that arrived before the
+// tick of step k−1 drive the step from t_{k−1} to t_k.
+//
+//   subscribes  /<vehicle>/cmd               iapsim_msgs/IapCommand
+//   publishes   /<vehicle>/state             iapsim_msgs/IapState
+//               /<vehicle>/odom              nav_msgs/Odometry (W -> platform, twist in the platform frame)
+//               /<vehicle>/<sub>/odom        nav_msgs/Odometry per sub-aircraft
+//               /<vehicle>/wrench/external   geometry_msgs/WrenchStamped (contacts, on the platform CoM, in P)
+//               /contacts                    iapsim_msgs/ContactArray (publish_contacts)
+
+#include <geometry_msgs/WrenchStamped.h>
+#include <iapsim_msgs/ContactArray.h>
+#include <iapsim_msgs/IapCommand.h>
+#include <iapsim_msgs/IapState.h>
+#include <nav_msgs/Odometry.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+
+#include "bridge/eigen_msgs.h"
+#include "bridge/process.h"
+#include "physics/physics_config.h"
+#include "physics/simulation.h"
+
+namespace iapsim::physics {
+namespace {
+
+using bridge::FromMsg;
+using bridge::ToPointMsg;
+using bridge::ToQuaternionMsg;
+using bridge::ToVector3Msg;
+
+SubAircraftSetpoint FromCommand(const iapsim_msgs::SubAircraftCommand& command, bool* known_mode) {
+  SubAircraftSetpoint setpoint;
+  *known_mode = true;
+  switch (command.mode) {
+    case iapsim_msgs::SubAircraftCommand::MODE_ATTITUDE:
+      setpoint.mode = SubAircraftSetpoint::Mode::kAttitude;
+      break;
+    case iapsim_msgs::SubAircraftCommand::MODE_BODY_RATE:
+      setpoint.mode = SubAircraftSetpoint::Mode::kBodyRate;
+      break;
+    case iapsim_msgs::SubAircraftCommand::MODE_THRUST_TORQUE:
+      setpoint.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+      break;
+    default:
+      *known_mode = false;
+  }
+  setpoint.thrust_N = command.thrust_N;
+  setpoint.q_WS = FromMsg(command.attitude_WS);
+  setpoint.w_WS_S = FromMsg(command.body_rate_S);
+  setpoint.thrust_W_N = FromMsg(command.thrust_W);
+  setpoint.torque_S_Nm = FromMsg(command.torque_S);
+  return setpoint;
+}
+
+void FillBody(const std::string& name, const BodyState& state, iapsim_msgs::BodyState* out) {
+  out->name = name;
+  out->pose_W.position = ToPointMsg(state.p_WB_m);
+  out->pose_W.orientation = ToQuaternionMsg(state.q_WB);
+  out->twist_W.linear = ToVector3Msg(state.v_WB_W);
+  out->twist_W.angular = ToVector3Msg(state.w_WB_W);
+  const Eigen::Quaterniond q_BW = state.q_WB.conjugate();
+  out->twist_B.linear = ToVector3Msg(q_BW * state.v_WB_W);
+  out->twist_B.angular = ToVector3Msg(q_BW * state.w_WB_W);
+  out->accel_W.linear = ToVector3Msg(state.a_WB_W);
+  out->accel_W.angular = ToVector3Msg(state.alpha_WB_W);
+}
+
+void FillOdometry(const iapsim_msgs::BodyState& body, const std_msgs::Header& header, nav_msgs::Odometry* odom) {
+  odom->header = header;
+  odom->child_frame_id = body.name;
+  odom->pose.pose = body.pose_W;
+  odom->twist.twist = body.twist_B;  // ROS: the twist is in the child frame
+}
+
+class PhysicsNode : public bridge::Process {
+ public:
+  PhysicsNode(const bridge::ProcessContext& context, bridge::YamlMap& params)
+      : config_(ReadPhysicsConfig(params, context.scenario.file, context.scenario.clock.step_s)) {
+    try {
+      sim_ = std::make_unique<Simulation>(config_.simulation);
+    } catch (const std::invalid_argument& e) {
+      params.Fail("vehicles", e.what());
+    }
+    vehicles_.resize(sim_->vehicle_count());
+  }
+
+  void Setup(bridge::Bus& bus) override {
+    bus_ = &bus;
+    for (int v = 0; v < sim_->vehicle_count(); ++v) {
+      const std::string& name = sim_->vehicle(v).name;
+      bus.Subscribe<iapsim_msgs::IapCommand>(
+          "/" + name + "/cmd",
+          [this, v](const iapsim_msgs::IapCommand& command, const bridge::MessageInfo&) { OnCommand(v, command); });
+    }
+  }
+
+  void Step(const bridge::StepInfo& step) override {
+    if (step.step > 0) {
+      const auto start = std::chrono::steady_clock::now();
+      for (int i = 0; i < config_.substeps; ++i) sim_->Step();
+      physics_wall_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+    std_msgs::Header header;
+    header.stamp = bridge::ToRosTime(step.stamp_ns);
+    header.frame_id = "W";
+    for (int v = 0; v < sim_->vehicle_count(); ++v) Publish(v, step.step, header);
+    if (config_.publish_contacts) PublishContacts(step.step, header);
+  }
+
+  void Finish(nlohmann::json* report) override {
+    (*report)["physics_steps"] = sim_->step_count();
+    (*report)["physics_step_s"] = config_.simulation.step_s;
+    (*report)["physics_steps_per_s"] = physics_wall_s_ > 0.0 ? sim_->step_count() / physics_wall_s_ : 0.0;
+    for (int v = 0; v < sim_->vehicle_count(); ++v) {
+      const VehicleOutput& out = sim_->output(v);
+      auto& entry = (*report)["vehicles"][sim_->vehicle(v).name];
+      entry["commands_received"] = vehicles_[v].commands;
+      entry["commands_rejected"] = vehicles_[v].rejected + out.invalid_commands;
+      entry["saturated_sub_aircraft_steps"] = out.saturated_steps;
+    }
+  }
+
+ private:
+  struct VehicleBus {
+    uint64_t commands = 0;
+    uint64_t rejected = 0;  // wrong size or unknown mode (invalid numbers are counted by the simulation)
+    iapsim_msgs::IapState state;
+    nav_msgs::Odometry odom;
+    geometry_msgs::WrenchStamped wrench;
+  };
+
+  void OnCommand(int v, const iapsim_msgs::IapCommand& command) {
+    VehicleBus& vehicle = vehicles_[v];
+    ++vehicle.commands;
+    const size_t n = sim_->vehicle(v).vehicle.sub_aircraft.size();
+    if (command.sub_aircraft.size() != n) {
+      if (vehicle.rejected++ == 0) {
+        spdlog::warn("/{}/cmd: a command for {} sub-aircraft, the vehicle has {}: rejected (the last one holds)",
+                     sim_->vehicle(v).name, command.sub_aircraft.size(), n);
+      }
+      return;
+    }
+    for (size_t s = 0; s < n; ++s) {
+      bool known_mode;
+      const SubAircraftSetpoint setpoint = FromCommand(command.sub_aircraft[s], &known_mode);
+      if (!known_mode) {
+        if (vehicle.rejected++ == 0) {
+          spdlog::warn("/{}/cmd: sub-aircraft {} has unknown mode {}: rejected", sim_->vehicle(v).name, s,
+                       command.sub_aircraft[s].mode);
+        }
+        continue;
+      }
+      if (!sim_->SetCommand(v, static_cast<int>(s), setpoint) && sim_->output(v).invalid_commands == 1) {
+        spdlog::warn("/{}/cmd: sub-aircraft {} got a NaN, infinite or non-unit setpoint: rejected, the last holds",
+                     sim_->vehicle(v).name, s);
+      }
+    }
+  }
+
+  void Publish(int v, uint64_t step, const std_msgs::Header& header) {
+    const VehicleSpec& spec = sim_->vehicle(v);
+    const VehicleOutput& out = sim_->output(v);
+    const MultibodyWorld& world = sim_->world();
+    VehicleBus& bus = vehicles_[v];
+    iapsim_msgs::IapState& state = bus.state;
+    const size_t n = out.sub_aircraft_bodies.size();
+    state.header = header;
+    state.step = step;
+    state.bodies.resize(n + 1);
+    state.joints.resize(n);
+    state.sub_aircraft.resize(n);
+    const BodyState& platform = world.body(out.platform_body);
+    FillBody(world.body_name(out.platform_body), platform, &state.bodies[0]);
+    for (size_t s = 0; s < n; ++s) {
+      const model::SubAircraft& model = spec.vehicle.sub_aircraft[s];
+      const BodyState& sub = world.body(out.sub_aircraft_bodies[s]);
+      FillBody(world.body_name(out.sub_aircraft_bodies[s]), sub, &state.bodies[s + 1]);
+      iapsim_msgs::JointState& joint = state.joints[s];
+      joint.name = model.name + "_joint";
+      joint.type = model.joint == model::JointType::kSpherical ? iapsim_msgs::JointState::TYPE_SPHERICAL
+                                                               : iapsim_msgs::JointState::TYPE_FIXED;
+      joint.orientation_PS = ToQuaternionMsg(platform.q_WB.conjugate() * sub.q_WB);
+      joint.angular_velocity_S = ToVector3Msg(sub.q_WB.conjugate() * (sub.w_WB_W - platform.w_WB_W));
+      joint.reaction_force_P = ToVector3Msg(out.sub_aircraft[s].joint_force_P_N);
+      iapsim_msgs::SubAircraftState& rotors = state.sub_aircraft[s];
+      rotors.name = model.name;
+      rotors.thrust_W = ToVector3Msg(out.sub_aircraft[s].thrust_W_N);
+      rotors.torque_S = ToVector3Msg(out.sub_aircraft[s].torque_S_Nm);
+      const RotorVector& speeds = out.sub_aircraft[s].rotor_speeds_rad_s;
+      rotors.rotor_speeds_rad_s.assign(speeds.data(), speeds.data() + speeds.size());
+      rotors.saturated = out.sub_aircraft[s].saturated;
+    }
+    state.external_wrench_P.force = ToVector3Msg(out.external_force_P_N);
+    state.external_wrench_P.torque = ToVector3Msg(out.external_torque_P_Nm);
+    state.external_wrench_W.force = ToVector3Msg(out.external_force_W_N);
+    state.external_wrench_W.torque = ToVector3Msg(out.external_torque_W_Nm);
+    const std::string prefix = "/" + spec.name;
+    bus_->Publish(prefix + "/state", state);
+
+    FillOdometry(state.bodies[0], header, &bus.odom);
+    bus_->Publish(prefix + "/odom", bus.odom);
+    for (size_t s = 0; s < n; ++s) {
+      FillOdometry(state.bodies[s + 1], header, &bus.odom);
+      bus_->Publish(prefix + "/" + spec.vehicle.sub_aircraft[s].name + "/odom", bus.odom);
+    }
+    bus.wrench.header = header;
+    bus.wrench.header.frame_id = state.bodies[0].name;
+    bus.wrench.wrench = state.external_wrench_P;
+    bus_->Publish(prefix + "/wrench/external", bus.wrench);
+  }
+
+  void PublishContacts(uint64_t step, const std_msgs::Header& header) {
+    const MultibodyWorld& world = sim_->world();
+    contacts_.header = header;
+    contacts_.step = step;
+    contacts_.contacts.resize(world.contacts().size());
+    for (size_t i = 0; i < world.contacts().size(); ++i) {
+      const Contact& c = world.contacts()[i];
+      iapsim_msgs::Contact& out = contacts_.contacts[i];
+      out.body_a = c.body_a == kGround ? "ground" : world.body_name(c.body_a);
+      out.body_b = c.body_b == kGround ? "ground" : world.body_name(c.body_b);
+      out.point_W = ToPointMsg(c.point_W_m);
+      out.normal_W = ToVector3Msg(c.normal_W);
+      out.force_on_a_W = ToVector3Msg(c.force_on_a_W_N);
+      out.depth_m = c.depth_m;
+    }
+    bus_->Publish("/contacts", contacts_);
+  }
+
+  PhysicsConfig config_;
+  std::unique_ptr<Simulation> sim_;
+  std::vector<VehicleBus> vehicles_;
+  iapsim_msgs::ContactArray contacts_;
+  bridge::Bus* bus_ = nullptr;
+  double physics_wall_s_ = 0.0;
+};
+
+}  // namespace
+}  // namespace iapsim::physics
+
+int main(int argc, char** argv) {
+  return iapsim::bridge::ProcessMain(
+      argc, argv, "iapsim physics: IAPs as Bullet multibodies with rotors and flight controllers; owns the clock",
+      [](const iapsim::bridge::ProcessContext& context, iapsim::bridge::YamlMap& params) {
+        return std::make_unique<iapsim::physics::PhysicsNode>(context, params);
+      });
+}
