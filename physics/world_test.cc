@@ -113,6 +113,16 @@ TEST(MultibodyWorld, FreeFloatingIapConservesMomentumAndKeepsItsJoints) {
   EXPECT_LT(joint_drift_m, 1e-9);
 }
 
+// The sum of the contact forces on `body` in the last step.
+Eigen::Vector3d ContactForceOn(const MultibodyWorld& world, int body) {
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  for (const Contact& c : world.contacts()) {
+    if (c.body_a == body) force += c.force_on_a_W_N;
+    if (c.body_b == body) force -= c.force_on_a_W_N;
+  }
+  return force;
+}
+
 TEST(MultibodyWorld, ABoxAtRestReadsItsWeightAndFrictionOpposesSliding) {
   WorldConfig config;
   WorldObject box;
@@ -127,8 +137,7 @@ TEST(MultibodyWorld, ABoxAtRestReadsItsWeightAndFrictionOpposesSliding) {
   MultibodyWorld world(config, 0.001);
   const int id = world.FindBody("box");
   for (int k = 0; k < 500; ++k) world.Step();
-  Eigen::Vector3d force = Eigen::Vector3d::Zero();
-  for (const Contact& c : world.contacts()) force += c.body_a == id ? c.force_on_a_W_N : -c.force_on_a_W_N;
+  const Eigen::Vector3d force = ContactForceOn(world, id);
   EXPECT_NEAR(force.z(), -2.0 * 9.81, 1e-6);  // the ground pushes up (−z in NED) with the weight
   EXPECT_NEAR(force.head<2>().norm(), 0.0, 1e-6);
 
@@ -140,9 +149,7 @@ TEST(MultibodyWorld, ABoxAtRestReadsItsWeightAndFrictionOpposesSliding) {
   for (int k = 0; k < steps; ++k) {
     world.AddForce_W(id, Eigen::Vector3d(15.0, 0.0, 0.0));
     world.Step();
-    for (const Contact& c : world.contacts()) {
-      mean_force += (c.body_a == id ? c.force_on_a_W_N : Eigen::Vector3d(-c.force_on_a_W_N)) / steps;
-    }
+    mean_force += ContactForceOn(world, id) / steps;
   }
   // within 1%: the box rocks a little on its leading edge while it slides
   EXPECT_NEAR(world.body(id).v_WB_W.x(), (15.0 - 0.5 * 2.0 * 9.81) / 2.0 * steps * 0.001, 0.005);

@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bridge/bus.h"
+#include "bridge/eigen_msgs.h"
 #include "tools/commands.h"
 
 namespace iapsim::tools {
@@ -34,11 +35,6 @@ int64_t NowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
 }
 
-ros::Time ToRosTime(int64_t ns) {
-  ros::Time t;
-  t.fromNSec(static_cast<uint64_t>(ns));
-  return t;
-}
 
 struct Endpoints {
   std::string parent, child;
@@ -252,8 +248,8 @@ double BareSocketRoundTripsPerSecond(int count) {
 
 }  // namespace
 
-int BenchBus(const std::string& json_path) {
-  nlohmann::json out;
+int BenchBus(nlohmann::json* report) {
+  nlohmann::json& out = (*report)["bus"];
   std::printf("iapsim bench bus (two processes on this machine, one message in flight at a time)\n\n");
   std::printf("%-9s %-34s %9s %9s %10s %10s %10s\n", "transport", "message", "bytes", "samples", "p50_us",
               "p99_us", "max_us");
@@ -287,10 +283,6 @@ int BenchBus(const std::string& json_path) {
     out["lockstep_round_trips_per_s"][transport] = r.round_trips_per_s;
   }
   std::printf("\ntargets: state p99 over ipc < 100 us; >= 20000 lockstep round trips/s\n");
-  if (!json_path.empty()) {
-    std::ofstream(json_path) << out.dump(2) << "\n";
-    std::printf("figures written to %s\n", json_path.c_str());
-  }
   return 0;
 }
 

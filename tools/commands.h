@@ -2,6 +2,7 @@
 // The subcommands of the `iapsim` program. Each returns the process exit code.
 
 #include <optional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -49,7 +50,14 @@ int Echo(const LiveArgs& args);
 int Urdf(const std::string& vehicle, const std::string& output);
 
 /// Bus latency (ipc/tcp, state-sized and image-sized messages) and lockstep round trips between two
-/// processes.
-int BenchBus(const std::string& json_path);
+/// processes. Prints a table and adds the figures to `report`.
+int BenchBus(nlohmann::json* report);
+
+/// In-process physics steps/s for the vehicle (in the air, on the ground) and for 2..8 sub-aircraft, with
+/// a bare Bullet multibody of the same size as the baseline of each.
+int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report);
+
+/// Runs the benchmarks named by `what` (bus, physics or all); writes every figure to `json_path` if set.
+int Bench(const std::string& what, const std::string& vehicle_path, const std::string& json_path);
 
 }  // namespace iapsim::tools

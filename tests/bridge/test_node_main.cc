@@ -20,16 +20,11 @@
 #include <random>
 #include <thread>
 
+#include "bridge/eigen_msgs.h"
 #include "bridge/process.h"
 
 namespace iapsim::bridge {
 namespace {
-
-ros::Time ToRosTime(int64_t ns) {
-  ros::Time t;
-  t.fromNSec(static_cast<uint64_t>(ns));
-  return t;
-}
 
 class TestNode : public Process {
  public:
