@@ -41,14 +41,13 @@ class ControlNode : public bridge::Process {
                                          });
   }
 
-  void Step(const bridge::StepInfo& step) override {
+  void Step(const bridge::StepInfo&) override {
     if (!have_state_ || state_.bodies.empty()) return;  // realtime: nothing to answer yet
     if (command_.sub_aircraft.empty()) HoldHover();
     command_.header.stamp = state_.header.stamp;
     command_.step = state_.step;
     bus_->Publish("/" + vehicle_name_ + "/cmd", command_);
     ++commands_;
-    (void)step;
   }
 
   void Finish(nlohmann::json* report) override { (*report)["commands_sent"] = commands_; }

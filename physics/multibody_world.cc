@@ -181,7 +181,7 @@ struct MultibodyWorld::Impl {
       state.a_WB_W.setZero();
       state.alpha_WB_W.setZero();
       state.a_WBcom_W.setZero();
-    } else {  // exact for Bullet's semi-implicit Euler: the acceleration the step applied
+    } else {  // the mean acceleration over the last step
       state.a_WB_W = (v_WB_W - state.v_WB_W) / step_s;
       state.alpha_WB_W = (w_W - state.w_WB_W) / step_s;
       state.a_WBcom_W = (v_WC_W - state.v_WBcom_W) / step_s;
