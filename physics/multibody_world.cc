@@ -46,8 +46,8 @@ PrincipalFrame PrincipalFrameOf(const model::MassProperties& mass) {
 struct MultibodyWorld::Impl {
   struct Body {
     std::string name;
-    btMultiBody* multibody = nullptr;  // or
-    btRigidBody* rigid = nullptr;
+    btMultiBody* multibody = nullptr;  // a multibody link, or
+    btRigidBody* rigid = nullptr;      // a world object
     int link = -1;         // multibody: -1 for the base
     int parent_body = -2;  // multibody links: the joint's parent body
     Eigen::Isometry3d X_CB = Eigen::Isometry3d::Identity();  // B in Bullet's frame C

@@ -113,6 +113,18 @@ TEST(MultibodyWorld, FreeFloatingIapConservesMomentumAndKeepsItsJoints) {
   EXPECT_LT(joint_drift_m, 1e-9);
 }
 
+WorldObject Box(const std::string& name, const Eigen::Vector3d& size_m, const Eigen::Vector3d& p_WO_m,
+               double mass_kg = 0.0) {
+  WorldObject object;
+  object.name = name;
+  model::Shape shape;
+  shape.box_size_m = size_m;
+  object.shapes = {shape};
+  object.p_WO_m = p_WO_m;
+  object.mass_kg = mass_kg;
+  return object;
+}
+
 // The sum of the contact forces on `body` in the last step.
 Eigen::Vector3d ContactForceOn(const MultibodyWorld& world, int body) {
   Eigen::Vector3d force = Eigen::Vector3d::Zero();
@@ -125,13 +137,7 @@ Eigen::Vector3d ContactForceOn(const MultibodyWorld& world, int body) {
 
 TEST(MultibodyWorld, ABoxAtRestReadsItsWeightAndFrictionOpposesSliding) {
   WorldConfig config;
-  WorldObject box;
-  box.name = "box";
-  model::Shape shape;
-  shape.box_size_m = Eigen::Vector3d(0.4, 0.4, 0.2);
-  box.shapes = {shape};
-  box.mass_kg = 2.0;
-  box.p_WO_m = Eigen::Vector3d(0.0, 0.0, -0.1);
+  WorldObject box = Box("box", Eigen::Vector3d(0.4, 0.4, 0.2), Eigen::Vector3d(0.0, 0.0, -0.1), 2.0);
   box.material.friction = 0.5;
   config.objects = {box};
   MultibodyWorld world(config, 0.001);
@@ -159,13 +165,8 @@ TEST(MultibodyWorld, ABoxAtRestReadsItsWeightAndFrictionOpposesSliding) {
 
 TEST(Simulation, AnIapRestingOnABoxReadsItsWeightAsExternalWrench) {
   SimulationConfig config;
-  WorldObject stand;
-  stand.name = "stand";
-  model::Shape shape;
-  shape.box_size_m = Eigen::Vector3d(0.3, 0.3, 0.5);
-  stand.shapes = {shape};
-  stand.p_WO_m = Eigen::Vector3d(0.0, 0.0, -0.25);  // static, top at z = −0.5
-  config.world.objects = {stand};
+  // static, top at z = −0.5
+  config.world.objects = {Box("stand", Eigen::Vector3d(0.3, 0.3, 0.5), Eigen::Vector3d(0.0, 0.0, -0.25))};
   // platform box 0.05 m tall: its bottom on the stand's top
   config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -0.5 - 0.025 - 0.002)));
   config.vehicles[0].initial_rotors = InitialRotors::kIdle;
@@ -190,12 +191,7 @@ TEST(Simulation, AnIapRestingOnABoxReadsItsWeightAsExternalWrench) {
 TEST(Simulation, CollisionFiltersLetAVehiclePassThroughAnObject) {
   SimulationConfig config;
   config.world.ground = false;
-  WorldObject ghost;
-  ghost.name = "ghost";
-  model::Shape shape;
-  shape.box_size_m = Eigen::Vector3d(4.0, 4.0, 0.1);
-  ghost.shapes = {shape};
-  ghost.p_WO_m = Eigen::Vector3d(0.0, 0.0, 0.5);
+  WorldObject ghost = Box("ghost", Eigen::Vector3d(4.0, 4.0, 0.1), Eigen::Vector3d(0.0, 0.0, 0.5));
   ghost.filter.group = 4;
   ghost.filter.mask = ~1;  // collides with everything but group 1 (vehicles)
   config.world.objects = {ghost};
