@@ -10,6 +10,7 @@
 #include <iapsim_msgs/Hello.h>
 #include <iapsim_msgs/IapCommand.h>
 #include <iapsim_msgs/IapState.h>
+#include <iapsim_msgs/LatchCommand.h>
 #include <iapsim_msgs/LatchEvent.h>
 #include <iapsim_msgs/Setpoint.h>
 #include <iapsim_msgs/StepAck.h>
@@ -44,6 +45,7 @@ std::map<std::string, RegisteredType> BuildRegistry() {
   Register<iapsim_msgs::Hello>(&types);
   Register<iapsim_msgs::IapCommand>(&types);
   Register<iapsim_msgs::IapState>(&types);
+  Register<iapsim_msgs::LatchCommand>(&types);
   Register<iapsim_msgs::LatchEvent>(&types);
   Register<iapsim_msgs::Setpoint>(&types);
   Register<iapsim_msgs::StepAck>(&types);

@@ -34,10 +34,11 @@ void AddGeometry(tinyxml2::XMLElement* parent, const Shape& shape) {
     case Shape::Kind::kBox:
       geometry->InsertNewChildElement("box")->SetAttribute("size", Vec(shape.box_size_m).c_str());
       break;
-    case Shape::Kind::kCylinder: {
-      auto* cylinder = geometry->InsertNewChildElement("cylinder");
-      cylinder->SetAttribute("radius", Num(shape.radius_m).c_str());
-      cylinder->SetAttribute("length", Num(shape.length_m).c_str());
+    case Shape::Kind::kCylinder:
+    case Shape::Kind::kCone: {
+      auto* solid = geometry->InsertNewChildElement(shape.kind == Shape::Kind::kCone ? "cone" : "cylinder");
+      solid->SetAttribute("radius", Num(shape.radius_m).c_str());
+      solid->SetAttribute("length", Num(shape.length_m).c_str());
       break;
     }
     case Shape::Kind::kSphere:
@@ -98,7 +99,10 @@ Eigen::Vector3d RpyOf(const urdf::Rotation& rotation) {
   return Eigen::Vector3d(roll, pitch, yaw);
 }
 
-LinkDescription ConvertLink(const urdf::Link& link, const std::string& source) {
+// the collision cones the pre-parse renamed to cylinders: (link name, index of the <collision> in the link)
+using ConeSet = std::set<std::pair<std::string, size_t>>;
+
+LinkDescription ConvertLink(const urdf::Link& link, const ConeSet& cones, const std::string& source) {
   LinkDescription out;
   out.name = link.name;
   if (!link.inertial || link.inertial->mass <= 0.0) {
@@ -112,7 +116,8 @@ LinkDescription ConvertLink(const urdf::Link& link, const std::string& source) {
   out.mass.mass_kg = in.mass;
   out.mass.com_B_m = ToEigen(in.origin.position);
   out.mass.inertia_B_kgm2 << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
-  for (const auto& collision : link.collision_array) {
+  for (size_t c = 0; c < link.collision_array.size(); ++c) {
+    const auto& collision = link.collision_array[c];
     if (!collision || !collision->geometry) continue;
     Shape shape;
     shape.origin_B_m = ToEigen(collision->origin.position);
@@ -126,7 +131,7 @@ LinkDescription ConvertLink(const urdf::Link& link, const std::string& source) {
       }
       case urdf::Geometry::CYLINDER: {
         const auto& cylinder = static_cast<const urdf::Cylinder&>(*collision->geometry);
-        shape.kind = Shape::Kind::kCylinder;
+        shape.kind = cones.count({link.name, c}) ? Shape::Kind::kCone : Shape::Kind::kCylinder;
         shape.radius_m = cylinder.radius;
         shape.length_m = cylinder.length;
         break;
@@ -137,7 +142,7 @@ LinkDescription ConvertLink(const urdf::Link& link, const std::string& source) {
         break;
       default:
         Fail(source, "link '" + link.name +
-                         "': collision meshes are not supported in URDF (use box, cylinder, sphere)");
+                         "': collision meshes are not supported in URDF (use box, cylinder, sphere, cone)");
     }
     out.collision.push_back(shape);
   }
@@ -195,6 +200,24 @@ MultibodyDescription ParseUrdf(const std::string& xml, const std::string& source
                        "' is floating; a vehicle has one free base and spherical or fixed joints");
     }
   }
+  // pre-parse: <cone> -> <cylinder> of the same radius and length, remembering the collision cones
+  ConeSet cones;
+  for (auto* link = robot->FirstChildElement("link"); link; link = link->NextSiblingElement("link")) {
+    const char* name = link->Attribute("name");
+    for (const char* kind : {"collision", "visual"}) {
+      size_t index = 0;
+      for (auto* element = link->FirstChildElement(kind); element;
+           element = element->NextSiblingElement(kind)) {
+        auto* geometry = element->FirstChildElement("geometry");
+        auto* cone = geometry ? geometry->FirstChildElement("cone") : nullptr;
+        if (cone) {
+          cone->SetName("cylinder");
+          if (name && std::string(kind) == "collision") cones.insert({name, index});
+        }
+        ++index;
+      }
+    }
+  }
   tinyxml2::XMLPrinter printer;
   doc.Print(&printer);
   const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(printer.CStr());
@@ -203,7 +226,7 @@ MultibodyDescription ParseUrdf(const std::string& xml, const std::string& source
   MultibodyDescription out;
   out.name = model->getName();
   const urdf::LinkConstSharedPtr root = model->getRoot();
-  out.links.push_back(ConvertLink(*root, source));
+  out.links.push_back(ConvertLink(*root, cones, source));
   // breadth-first: a joint's parent is always converted before its child
   std::queue<std::pair<urdf::LinkConstSharedPtr, int>> pending;
   pending.push({root, 0});
@@ -225,7 +248,7 @@ MultibodyDescription ParseUrdf(const std::string& xml, const std::string& source
       j.origin_parent_m = ToEigen(joint->parent_to_joint_origin_transform.position);
       j.rpy_parent_rad = RpyOf(joint->parent_to_joint_origin_transform.rotation);
       const urdf::LinkConstSharedPtr child = model->getLink(joint->child_link_name);
-      out.links.push_back(ConvertLink(*child, source));
+      out.links.push_back(ConvertLink(*child, cones, source));
       out.joints.push_back(j);
       pending.push({child, j.child});
     }

@@ -6,6 +6,10 @@
 // (RaiSim's convention, which the seed paper's engine used) through one pre-parse step: the XML is read with
 // tinyxml2, every spherical joint is rewritten to "floating" and remembered, then urdfdom parses the result.
 // Floating joints of the original file remain an error: a vehicle has one floating base.
+//
+// URDF has no cone either (docking parts need one, seed §IV-E). iapsim writes <cone radius="R" length="L"/>,
+// named after SDFormat's cone, with Shape's convention (along z, centred on half its length, apex toward +z);
+// the same pre-parse step renames it to <cylinder> for urdfdom and restores the cone in the description.
 
 #include <Eigen/Core>
 #include <string>

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -38,10 +39,13 @@ TEST(Vehicle, EveryShippedConfigurationLoadsAndRoundTripsThroughUrdf) {
     double total = 0.0;
     for (const auto& link : model.links) total += link.mass.mass_kg;
     EXPECT_DOUBLE_EQ(total, vehicle.TotalMass_kg());
-    for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) {
-      const SubAircraft& sub = vehicle.sub_aircraft[i];
-      const JointDescription& joint = model.joints[vehicle.tools.size() + i];
-      EXPECT_EQ(model.links[joint.child].name, sub.name);
+    for (const SubAircraft& sub : vehicle.sub_aircraft) {
+      // urdfdom orders a link's child joints by name, not as written
+      const auto joint_it =
+          std::find_if(model.joints.begin(), model.joints.end(),
+                       [&](const JointDescription& j) { return model.links[j.child].name == sub.name; });
+      ASSERT_NE(joint_it, model.joints.end()) << sub.name;
+      const JointDescription& joint = *joint_it;
       EXPECT_EQ(joint.parent, 0);
       EXPECT_EQ(joint.type, sub.joint);
       EXPECT_EQ(joint.origin_parent_m, sub.joint_P_m);  // exact: numbers are written with 17 digits
@@ -90,6 +94,42 @@ TEST(Vehicle, AnyNumberOfSubAircraftFromYamlAlone) {
   EXPECT_EQ(ParseUrdf(GenerateUrdf(v), "hexa").joints.size(), 6u);
 }
 
+// A free quadrotor carrying a cone: one sub-aircraft on a fixed joint; the cone survives the URDF round trip
+// (URDF has no cone: the pre-parse restores it).
+TEST(Vehicle, ASingleQuadrotorCarriesAConeThroughUrdf) {
+  const std::string text =
+      "name: probe\n"
+      "platform: {mass_kg: 0.2, inertia_kgm2: [0.001, 0.001, 0.001]}\n"
+      "tools:\n"
+      "  - {name: cone, mass_kg: 0.1, inertia_kgm2: [0.0001, 0.0001, 0.0001], origin_m: [0, 0.3, 0],\n"
+      "     collision: [{cone: {radius_m: 0.04, length_m: 0.08}, rpy_deg: [-90, 0, 0]}]}\n"
+      "sub_aircraft_defaults: {base: " +
+      F450() +
+      ", joint: fixed}\n"
+      "sub_aircraft:\n  - {name: quad, joint_m: [0, 0, 0]}\n";
+  const Vehicle v = LoadVehicle(WriteTemp("probe", text));
+  ASSERT_EQ(v.sub_aircraft.size(), 1u);
+  const std::string urdf = GenerateUrdf(v);
+  EXPECT_NE(urdf.find("<cone radius=\"0.04\" length=\"0.08\"/>"), std::string::npos) << urdf;
+  const MultibodyDescription model = ParseUrdf(urdf, "probe.urdf");
+  ASSERT_EQ(model.links.size(), 3u);
+  for (const JointDescription& joint : model.joints) EXPECT_EQ(joint.type, JointType::kFixed);
+  for (const LinkDescription& link : model.links) {
+    if (link.name == "platform") continue;
+    ASSERT_EQ(link.collision.size(), 1u);
+    const Shape& shape = link.collision[0];
+    if (link.name == "quad") {
+      EXPECT_EQ(shape.kind, Shape::Kind::kBox);  // the quadrotor's own box stays a box
+      continue;
+    }
+    EXPECT_EQ(link.name, "cone");
+    EXPECT_EQ(shape.kind, Shape::Kind::kCone);
+    EXPECT_EQ(shape.radius_m, 0.04);
+    EXPECT_EQ(shape.length_m, 0.08);
+    EXPECT_NEAR(shape.rpy_B_rad.x(), -M_PI / 2, 1e-12);
+  }
+}
+
 struct BadVehicle {
   std::string what;
   std::string text;
@@ -107,18 +147,22 @@ TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
        "platform.inertia_kgm2: violates the triangle inequality"},
       {"negative", "name: x\nplatform: {mass_kg: 1, inertia_kgm2: [-0.01, 0.01, 0.01]}\n" + subs,
        "not positive definite"},
-      {"one sub",
-       "name: x\n" + good_platform +
-           "sub_aircraft_defaults: {base: " + F450() + "}\n"
+      {"no sub",
+       "name: x\n" + good_platform + "sub_aircraft_defaults: {base: " + F450() + "}\nsub_aircraft: []\n",
+       "sub_aircraft: expected a list of sub-aircraft"},
+      {"one spherical sub",
+       "name: x\n" + good_platform + "sub_aircraft_defaults: {base: " + F450() +
+           "}\n"
            "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n",
-       "at least two sub-aircraft"},
+       "sub_aircraft[0].joint: a single sub-aircraft must be on a fixed joint"},
       {"no joint",
-       "name: x\n" + good_platform +
-           "sub_aircraft_defaults: {base: " + F450() + "}\n"
+       "name: x\n" + good_platform + "sub_aircraft_defaults: {base: " + F450() +
+           "}\n"
            "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {yaw_deg: 5}\n",
        "sub_aircraft[1].joint_m: is required"},
       {"shape",
-       "name: x\nplatform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04], collision: [{cone: 1}]}\n" + subs,
+       "name: x\nplatform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04], collision: [{torus: 1}]}\n" +
+           subs,
        "a shape is exactly one of"},
       {"no rotors",
        "name: x\n" + good_platform +
@@ -126,15 +170,19 @@ TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
            "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
        "sub_aircraft[0].rotors: is required"},
       {"rotor speeds",
-       "name: x\n" + good_platform +
-           "sub_aircraft_defaults:\n  base: " + F450() +
+       "name: x\n" + good_platform + "sub_aircraft_defaults:\n  base: " + F450() +
            "\n  rotors: {arm_m: 0.2, thrust_coefficient: 1e-5, torque_coefficient: 1e-7,"
            " motor_time_constant_s: 0.02, speed_rad_s: [900, 100]}\n"
            "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
        "sub_aircraft_defaults.rotors.speed_rad_s: expected 0 <= min < max"},
+      {"cone",
+       "name: x\nplatform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04], collision: [{cone: {radius_m: "
+       "0.1}}]}\n" +
+           subs,
+       "platform.collision[0].cone.length_m: is required"},
       {"vector",
-       "name: x\n" + good_platform +
-           "sub_aircraft_defaults: {base: " + F450() + "}\n"
+       "name: x\n" + good_platform + "sub_aircraft_defaults: {base: " + F450() +
+           "}\n"
            "sub_aircraft:\n  - {joint_m: [0.5, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
        "expected 3 numbers, got 2"},
   };

@@ -76,14 +76,18 @@ Shape ReadShape(YamlMap& map) {
     if (shape.box_size_m.minCoeff() <= 0.0) map.Fail("box", "sizes must be positive");
     ++kinds;
   }
-  if (map.Has("cylinder")) {
-    YamlMap cylinder = map.Map("cylinder");
-    shape.kind = Shape::Kind::kCylinder;
-    cylinder.Required("radius_m", &shape.radius_m);
-    cylinder.Required("length_m", &shape.length_m);
-    if (shape.radius_m <= 0.0 || shape.length_m <= 0.0)
-      map.Fail("cylinder", "radius_m and length_m must be positive");
-    cylinder.Finish();
+  // cylinders and cones: {radius_m, length_m}
+  using Kind = Shape::Kind;
+  for (const auto& [key, kind] : {std::pair{"cylinder", Kind::kCylinder}, {"cone", Kind::kCone}}) {
+    if (!map.Has(key)) continue;
+    YamlMap solid = map.Map(key);
+    shape.kind = kind;
+    solid.Required("radius_m", &shape.radius_m);
+    solid.Required("length_m", &shape.length_m);
+    if (shape.radius_m <= 0.0 || shape.length_m <= 0.0) {
+      map.Fail(key, "radius_m and length_m must be positive");
+    }
+    solid.Finish();
     ++kinds;
   }
   if (map.Has("sphere")) {
@@ -94,8 +98,9 @@ Shape ReadShape(YamlMap& map) {
     sphere.Finish();
     ++kinds;
   }
-  if (kinds != 1)
-    map.Fail("box", "a shape is exactly one of box: [x, y, z], cylinder: {...} or sphere: {...}");
+  if (kinds != 1) {
+    map.Fail("box", "a shape is exactly one of box: [x, y, z], cylinder: {...}, sphere: {...}, cone: {...}");
+  }
   OptionalVector3(map, "origin_m", &shape.origin_B_m);
   OptionalVector3(map, "rpy_deg", &shape.rpy_B_rad, kDegToRad);
   map.Finish();
@@ -208,6 +213,32 @@ Eigen::Vector3d Vehicle::CenterOfMass_P_m() const {
   return moment / TotalMass_kg();
 }
 
+namespace {
+
+// Inertia about a point `r` away from the CoM (parallel-axis theorem), same axes.
+Eigen::Matrix3d ShiftInertia(const Eigen::Matrix3d& inertia_com, double mass_kg, const Eigen::Vector3d& r) {
+  return inertia_com + mass_kg * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+}
+
+}  // namespace
+
+Eigen::Matrix3d Vehicle::LumpedInertia_P_kgm2() const {
+  Eigen::Matrix3d J = ShiftInertia(platform.inertia_B_kgm2, platform.mass_kg, platform.com_B_m);
+  for (const auto& t : tools) {
+    const Eigen::Matrix3d R_PT = RotationFromRpy(t.rpy_P_rad);
+    J += ShiftInertia(R_PT * t.mass.inertia_B_kgm2 * R_PT.transpose(), t.mass.mass_kg,
+                      t.origin_P_m + R_PT * t.mass.com_B_m);
+  }
+  for (const auto& s : sub_aircraft) {
+    const Eigen::Matrix3d R_PS = Eigen::AngleAxisd(s.initial_yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Matrix3d own =
+        s.joint == JointType::kFixed ? Eigen::Matrix3d(R_PS * s.mass.inertia_B_kgm2 * R_PS.transpose())
+                                     : Eigen::Matrix3d::Zero();
+    J += ShiftInertia(own, s.mass.mass_kg, s.joint_P_m + R_PS * s.mass.com_B_m);
+  }
+  return J;
+}
+
 Eigen::VectorXd Vehicle::LevelHoverThrusts_N(double gravity_mps2) const {
   const Eigen::Vector3d d_0 = CenterOfMass_P_m();
   Eigen::MatrixXd A(3, sub_aircraft.size());
@@ -267,8 +298,8 @@ Vehicle LoadVehicle(const std::string& path) {
   defaults_map.Finish();
 
   const YAML::Node subs = top.Raw("sub_aircraft");
-  if (!subs || !subs.IsSequence() || subs.size() < 2) {
-    top.Fail("sub_aircraft", "expected a list of at least two sub-aircraft");
+  if (!subs || !subs.IsSequence() || subs.size() < 1) {
+    top.Fail("sub_aircraft", "expected a list of sub-aircraft (two or more, or one on a fixed joint)");
   }
   for (size_t i = 0; i < subs.size(); ++i) {
     YamlMap map(subs[i], path, "sub_aircraft[" + std::to_string(i) + "]");
@@ -288,6 +319,10 @@ Vehicle LoadVehicle(const std::string& path) {
     map.Finish();
     for (const auto& other : vehicle.sub_aircraft) {
       if (other.name == sub.name) map.Fail("name", "'" + sub.name + "' is used twice");
+    }
+    // alone on a spherical joint it could not turn the platform: a free quadrotor carries it rigidly
+    if (subs.size() == 1 && sub.joint != JointType::kFixed) {
+      map.Fail("joint", "a single sub-aircraft must be on a fixed joint (a quadrotor carrying the platform)");
     }
     vehicle.sub_aircraft.push_back(sub);
   }

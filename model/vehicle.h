@@ -1,6 +1,8 @@
 #pragma once
 // Vehicle description: a central platform P carrying n sub-aircraft S1..Sn on spherical (or fixed) joints,
-// seed paper §III. Loaded from configs/vehicles/*.yaml; frames are FRD bodies in a NED world.
+// seed paper §III. One sub-aircraft on a fixed joint is a free quadrotor whose "platform" is its payload
+// (the docking-part carrier of seed §IV-E). Loaded from configs/vehicles/*.yaml; frames are FRD bodies in a
+// NED world.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -11,13 +13,14 @@
 
 namespace iapsim::model {
 
-/// A collision (and default visual) shape, placed in its body's frame.
+/// A collision (and default visual) shape, placed in its body's frame. Cylinders and cones lie along the
+/// shape's own z axis, centred on half their length; a cone's apex points along +z, its base circle at −z.
 struct Shape {
-  enum class Kind { kBox, kCylinder, kSphere };
+  enum class Kind { kBox, kCylinder, kSphere, kCone };
   Kind kind = Kind::kBox;
   Eigen::Vector3d box_size_m = Eigen::Vector3d::Zero();  // kBox: full extents along x, y, z
-  double radius_m = 0.0;                                 // kCylinder, kSphere
-  double length_m = 0.0;                                 // kCylinder: along the cylinder's own z axis
+  double radius_m = 0.0;                                 // kCylinder, kSphere; kCone: of the base
+  double length_m = 0.0;                                 // kCylinder, kCone: along the shape's z axis
   Eigen::Vector3d origin_B_m = Eigen::Vector3d::Zero();  // shape centre in the body frame
   Eigen::Vector3d rpy_B_rad = Eigen::Vector3d::Zero();   // shape orientation (roll, pitch, yaw)
 };
@@ -92,6 +95,10 @@ struct Vehicle {
   double TotalMass_kg() const;
   /// d_0: the whole IAP's centre of mass in P, with every joint at its initial position (seed §III-B).
   Eigen::Vector3d CenterOfMass_P_m() const;
+  /// J of the seed's equation (3), about P's origin, in P: the platform and tools as rigid bodies, each
+  /// sub-aircraft as a point mass at its joint (its own rotation is free on a spherical joint) or, on a
+  /// fixed joint, as a rigid body. Joints at their initial positions.
+  Eigen::Matrix3d LumpedInertia_P_kgm2() const;
   /// Level-hover trim: the vertical thrust of each sub-aircraft that carries the weight with no moment
   /// about the centre of mass, of least norm (equal shares for a symmetric IAP).
   Eigen::VectorXd LevelHoverThrusts_N(double gravity_mps2) const;
@@ -100,8 +107,8 @@ struct Vehicle {
 /// YAML readers shared by the configuration files that place shapes and frames (vehicles, worlds).
 /// `value` keeps its default when the key is absent; `scale` converts units (degrees to radians).
 void OptionalVector3(bridge::YamlMap& map, const std::string& key, Eigen::Vector3d* value, double scale = 1.0);
-/// A list of shapes: each {box: [x, y, z]} | {cylinder: {radius_m, length_m}} | {sphere: {radius_m}}, with
-/// optional origin_m and rpy_deg.
+/// A list of shapes: each {box: [x, y, z]} | {cylinder: {radius_m, length_m}} | {sphere: {radius_m}} |
+/// {cone: {radius_m, length_m}}, with optional origin_m and rpy_deg.
 void OptionalShapes(bridge::YamlMap& map, const std::string& key, std::vector<Shape>* shapes);
 
 /// URDF's roll-pitch-yaw convention: R = Rz(yaw) Ry(pitch) Rx(roll).

@@ -3,6 +3,7 @@
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyFixedConstraint.h>
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
 #include <btBulletDynamicsCommon.h>
 
@@ -18,6 +19,27 @@ btVector3 Bt(const Eigen::Vector3d& v) { return btVector3(v.x(), v.y(), v.z()); 
 btQuaternion Bt(const Eigen::Quaterniond& q) { return btQuaternion(q.x(), q.y(), q.z(), q.w()); }
 Eigen::Vector3d Eig(const btVector3& v) { return Eigen::Vector3d(v.x(), v.y(), v.z()); }
 Eigen::Quaterniond Eig(const btQuaternion& q) { return Eigen::Quaterniond(q.w(), q.x(), q.y(), q.z()); }
+btMatrix3x3 BtMatrix(const Eigen::Matrix3d& R) {
+  return btMatrix3x3(R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2));
+}
+
+// Bullet grows a cone outward by its collision margin (0.04 m by default, the size of a docking cone)
+constexpr double kConeMargin_m = 0.001;
+
+// Bullet's fixed constraint, correcting most of its position error in one step. The velocity-level solve
+// leaves an error of order (ω·step)²·r each step (a tumbling pair's centripetal motion); the world's error
+// reduction (0.2 a step, tuned for contacts) would let it build up to five times that. Not 1: some margin
+// for the iterative solver.
+class LatchConstraint final : public btMultiBodyFixedConstraint {
+ public:
+  using btMultiBodyFixedConstraint::btMultiBodyFixedConstraint;
+  void createConstraintRows(btMultiBodyConstraintArray& rows, btMultiBodyJacobianData& data,
+                            const btContactSolverInfo& info) override {
+    btContactSolverInfo latch_info = info;
+    latch_info.m_erp = 0.8;
+    btMultiBodyFixedConstraint::createConstraintRows(rows, data, latch_info);
+  }
+};
 
 // Bullet's per-body frame C: the CoM with principal axes (Bullet takes diagonal inertias only).
 struct PrincipalFrame {
@@ -55,8 +77,42 @@ struct MultibodyWorld::Impl {
     Eigen::Matrix3d inertia_B_kgm2 = Eigen::Matrix3d::Zero();
   };
 
+  // The constraint is made when the latch is declared, so closing it in the loop does not allocate.
+  struct Latch {
+    int body_a = 0;  // the constraint's A: always a multibody link
+    int body_b = 0;
+    btCollisionObject* collider_a = nullptr;
+    btCollisionObject* collider_b = nullptr;
+    std::unique_ptr<LatchConstraint> constraint;
+    bool closed = false;
+
+    bool Joins(const void* a, const void* b) const {
+      return (a == collider_a && b == collider_b) || (a == collider_b && b == collider_a);
+    }
+  };
+
+  // Bullet's own group/mask test, and no contact pair between the two bodies of a closed latch. A pair
+  // filter because setIgnoreCollisionCheck has no effect between multibody links (NOTES).
+  struct LatchPairFilter : btOverlapFilterCallback {
+    explicit LatchPairFilter(const std::vector<Latch>* all) : latches(all) {}
+    bool needBroadphaseCollision(btBroadphaseProxy* proxy0, btBroadphaseProxy* proxy1) const override {
+      if (!(proxy0->m_collisionFilterGroup & proxy1->m_collisionFilterMask) ||
+          !(proxy1->m_collisionFilterGroup & proxy0->m_collisionFilterMask)) {
+        return false;
+      }
+      for (const Latch& latch : *latches) {
+        if (latch.closed && latch.Joins(proxy0->m_clientObject, proxy1->m_clientObject)) return false;
+      }
+      return true;
+    }
+    const std::vector<Latch>* latches;
+  };
+
   double step_s;
   int solver_iterations;
+  // before the broadphase that calls the filter, so both outlive it
+  std::vector<Latch> latches;
+  LatchPairFilter latch_filter{&latches};
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher{&collision_config};
   btDbvtBroadphase broadphase;
@@ -84,9 +140,13 @@ struct MultibodyWorld::Impl {
       : step_s(step), solver_iterations(config.solver_iterations) {
     world.setGravity(btVector3(0.0, 0.0, config.gravity_mps2));
     world.getSolverInfo().m_numIterations = solver_iterations;
+    world.getPairCache()->setOverlapFilterCallback(&latch_filter);
   }
 
   ~Impl() {
+    for (auto& latch : latches) {
+      if (latch.closed) world.removeMultiBodyConstraint(latch.constraint.get());
+    }
     for (auto& body : rigid_bodies) world.removeRigidBody(body.get());
     for (auto& collider : colliders) world.removeCollisionObject(collider.get());
     for (auto& multibody : multibodies) world.removeMultiBody(multibody.get());
@@ -106,6 +166,10 @@ struct MultibodyWorld::Impl {
           break;
         case model::Shape::Kind::kSphere:
           child = std::make_unique<btSphereShape>(shape.radius_m);
+          break;
+        case model::Shape::Kind::kCone:
+          child = std::make_unique<btConeShapeZ>(shape.radius_m, shape.length_m);
+          child->setMargin(kConeMargin_m);
           break;
       }
       Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();
@@ -220,6 +284,17 @@ struct MultibodyWorld::Impl {
   }
 
   int BodyOf(const btCollisionObject* object) const { return object->getUserIndex(); }
+
+  static btCollisionObject* ColliderOf(const Body& body) {
+    if (body.rigid) return body.rigid;
+    return body.link < 0 ? body.multibody->getBaseCollider() : body.multibody->getLink(body.link).m_collider;
+  }
+
+  // Bullet's frame C of a body (its CoM, principal axes), from the body's state
+  Eigen::Isometry3d X_WC(int body) const {
+    const BodyState& state = states[body];
+    return Eigen::Translation3d(state.p_WB_m) * state.q_WB * bodies[body].X_CB.inverse();
+  }
 
   void CollectContacts() {
     contacts.clear();
@@ -402,6 +477,80 @@ void MultibodyWorld::AddJointTorque_W(int body, const Eigen::Vector3d& torque_W_
   AddTorque_W(body, torque_W_Nm);
   AddTorque_W(b.parent_body, -torque_W_Nm);
 }
+
+int MultibodyWorld::AddLatch(int body_a, int body_b) {
+  Impl& impl = *impl_;
+  if (body_a == body_b) {
+    throw std::invalid_argument("a latch needs two bodies, got '" + body_name(body_a) + "' twice");
+  }
+  Impl::Latch latch;
+  latch.body_a = body_a;
+  latch.body_b = body_b;
+  if (!impl.bodies.at(body_a).multibody) std::swap(latch.body_a, latch.body_b);
+  const Impl::Body& a = impl.bodies.at(latch.body_a);
+  const Impl::Body& b = impl.bodies.at(latch.body_b);
+  const std::string what = "latch between '" + a.name + "' and '" + b.name + "': ";
+  if (!a.multibody) {
+    throw std::invalid_argument(what + "one of them must be a multibody link (a vehicle's body)");
+  }
+  latch.collider_a = impl.ColliderOf(a);
+  latch.collider_b = impl.ColliderOf(b);
+  if (!latch.collider_a || !latch.collider_b) {
+    throw std::invalid_argument(what +
+                                "both need collision shapes (Bullet solves a latch only between colliders)");
+  }
+  // frames and pivots are set when it closes
+  const btVector3 zero(0.0, 0.0, 0.0);
+  const btMatrix3x3 identity = btMatrix3x3::getIdentity();
+  if (b.rigid) {
+    latch.constraint =
+        std::make_unique<LatchConstraint>(a.multibody, a.link, b.rigid, zero, zero, identity, identity);
+  } else {
+    latch.constraint = std::make_unique<LatchConstraint>(a.multibody, a.link, b.multibody, b.link, zero, zero,
+                                                         identity, identity);
+  }
+  latch.constraint->setMaxAppliedImpulse(1e30);  // Bullet's default caps it at 100 N·s a step
+  impl.latches.push_back(std::move(latch));
+  return static_cast<int>(impl.latches.size()) - 1;
+}
+
+void MultibodyWorld::CloseLatch(int latch) {
+  Impl& impl = *impl_;
+  Impl::Latch& l = impl.latches.at(latch);
+  if (l.closed) return;
+  // The constraint frame is B's frame C at closing, pivot halfway between the CoMs. frameInB = identity
+  // because Bullet maps a rigid body's frameInB as frameInB^T R_WC but a link's as R_WC frameInB: the two
+  // agree for the identity only.
+  const Eigen::Isometry3d X_WCa = impl.X_WC(l.body_a);
+  const Eigen::Isometry3d X_WCb = impl.X_WC(l.body_b);
+  const Eigen::Vector3d p_W_pivot = 0.5 * (X_WCa.translation() + X_WCb.translation());
+  l.constraint->setPivotInA(Bt(Eigen::Vector3d(X_WCa.inverse() * p_W_pivot)));
+  l.constraint->setPivotInB(Bt(Eigen::Vector3d(X_WCb.inverse() * p_W_pivot)));
+  l.constraint->setFrameInA(BtMatrix(X_WCa.linear().transpose() * X_WCb.linear()));
+  l.constraint->setFrameInB(btMatrix3x3::getIdentity());
+  impl.world.addMultiBodyConstraint(l.constraint.get());
+  l.closed = true;
+  // drop the pair's contacts now; the filter keeps the pair from coming back
+  impl.world.getPairCache()->removeOverlappingPair(l.collider_a->getBroadphaseHandle(),
+                                                   l.collider_b->getBroadphaseHandle(), &impl.dispatcher);
+}
+
+void MultibodyWorld::OpenLatch(int latch) {
+  Impl& impl = *impl_;
+  Impl::Latch& l = impl.latches.at(latch);
+  if (!l.closed) return;
+  impl.world.removeMultiBodyConstraint(l.constraint.get());
+  l.closed = false;
+  // The broadphase reports a pair only when a body leaves its fattened bounds, so bodies that overlap
+  // already would not collide until one of them moved away: add their pair back now.
+  btBroadphaseProxy* proxy_a = l.collider_a->getBroadphaseHandle();
+  btBroadphaseProxy* proxy_b = l.collider_b->getBroadphaseHandle();
+  if (TestAabbAgainstAabb2(proxy_a->m_aabbMin, proxy_a->m_aabbMax, proxy_b->m_aabbMin, proxy_b->m_aabbMax)) {
+    impl.world.getPairCache()->addOverlappingPair(proxy_a, proxy_b);
+  }
+}
+
+bool MultibodyWorld::latched(int latch) const { return impl_->latches.at(latch).closed; }
 
 void MultibodyWorld::Step() {
   Impl& impl = *impl_;

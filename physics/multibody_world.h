@@ -7,7 +7,11 @@
 // added (root first), then objects; the ground is kGround.
 //
 // Fidelity settings (see NOTES): no damping, no velocity clamps, one Bullet step per Step() (no substeps,
-// no accumulator), `solver_iterations` sequential-impulse iterations for contacts.
+// no accumulator), `solver_iterations` sequential-impulse iterations for contacts and latches.
+//
+// Latches join two bodies rigidly at run time (docking, seed §IV-E): a Bullet fixed constraint holding the
+// relative pose the bodies had when it closed. While it is closed, contacts between the two bodies are
+// dropped, since their shapes touch or overlap where they dock and contact impulses would fight it.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -110,6 +114,17 @@ class MultibodyWorld {
   void AddTorque_W(int body, const Eigen::Vector3d& torque_W_Nm);
   /// A torque through the joint of a multibody link: on the link, and its reaction on the joint's parent.
   void AddJointTorque_W(int body, const Eigen::Vector3d& torque_W_Nm);
+
+  /// Declares an open latch between two bodies and returns its id. Both need collision shapes (Bullet
+  /// solves a multibody constraint only between bodies with colliders) and at least one must be a multibody
+  /// link. Throws std::invalid_argument.
+  int AddLatch(int body_a, int body_b);
+  /// Closes the latch: from now on it holds the bodies' current relative pose, and contacts between the
+  /// two are ignored. Nothing happens when it is closed already.
+  void CloseLatch(int latch);
+  /// Opens the latch: the bodies move and collide freely again. Nothing happens when it is open.
+  void OpenLatch(int latch);
+  bool latched(int latch) const;
 
   /// Advances one step. No allocation once contacts have reached their largest count.
   void Step();

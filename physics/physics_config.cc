@@ -121,6 +121,71 @@ VehicleSpec ReadVehicle(YamlMap& map, const std::string& scenario_file, std::str
   return spec;
 }
 
+// {position_m, axis}, both in the body frame
+DockingPort ReadPort(YamlMap& map) {
+  DockingPort port;
+  for (const std::string key : {"position_m", "axis"}) {
+    if (!map.Has(key)) map.Fail(key, "is required (a port is {position_m, axis} in its body's frame)");
+  }
+  model::OptionalVector3(map, "position_m", &port.p_BQ_m);
+  model::OptionalVector3(map, "axis", &port.axis_B);
+  if (!(port.axis_B.norm() > 1e-9)) map.Fail("axis", "must be a non-zero vector");
+  port.axis_B.normalize();
+  map.Finish();
+  return port;
+}
+
+// The body under `key`: a vehicle's link "<vehicle>/<link>" (returns true) or a world object (false). A
+// latch holds bodies with collision shapes only (Bullet solves it between colliders).
+bool ReadLatchBody(YamlMap& map, const std::string& key, const SimulationConfig& simulation,
+                   std::string* name) {
+  map.Required(key, name);
+  for (const auto& object : simulation.world.objects) {
+    if (object.name == *name) return false;  // an object always has shapes
+  }
+  for (const auto& vehicle : simulation.vehicles) {
+    for (const auto& link : vehicle.description.links) {
+      if (vehicle.name + "/" + link.name != *name) continue;
+      if (link.collision.empty()) {
+        map.Fail(key, "'" + *name + "' has no collision shape for the latch to hold");
+      }
+      return true;
+    }
+  }
+  map.Fail(key, "'" + *name + "' is not a body of the world (\"<vehicle>/<link>\" or an object's name)");
+}
+
+double ReadTolerance(YamlMap& map, const std::string& key) {
+  double tolerance_m = 0.0;
+  map.Required(key, &tolerance_m);
+  if (!(tolerance_m > 0.0 && tolerance_m <= 1.0)) map.Fail(key, "must be in (0, 1] m");
+  return tolerance_m;
+}
+
+LatchSpec ReadLatch(YamlMap& map, const SimulationConfig& simulation) {
+  LatchSpec latch;
+  map.Required("name", &latch.name);
+  if (latch.name.empty()) map.Fail("name", "must not be empty");
+  const bool a_in_vehicle = ReadLatchBody(map, "body_a", simulation, &latch.body_a);
+  const bool b_in_vehicle = ReadLatchBody(map, "body_b", simulation, &latch.body_b);
+  if (latch.body_a == latch.body_b) map.Fail("body_b", "is body_a: a latch joins two bodies");
+  if (!a_in_vehicle && !b_in_vehicle) map.Fail("body_b", "one of the two bodies must be a vehicle's");
+  for (const auto& [key, port] : {std::pair{"port_a", &latch.port_a}, {"port_b", &latch.port_b}}) {
+    if (!map.Has(key)) map.Fail(key, "is required: {position_m, axis} in the body's frame");
+    YamlMap port_map = map.Map(key);
+    *port = ReadPort(port_map);
+  }
+  latch.axial_tolerance_m = ReadTolerance(map, "axial_tolerance_m");
+  latch.radial_tolerance_m = ReadTolerance(map, "radial_tolerance_m");
+  double angular_tolerance_deg = latch.angular_tolerance_rad / kDegToRad;
+  map.OptionalInRange("angular_tolerance_deg", &angular_tolerance_deg, 0.0, 180.0);
+  latch.angular_tolerance_rad = angular_tolerance_deg * kDegToRad;
+  map.OptionalInRange("max_relative_speed_mps", &latch.max_relative_speed_mps, 0.0, 100.0);
+  map.Optional("auto", &latch.auto_close);
+  map.Finish();
+  return latch;
+}
+
 }  // namespace
 
 PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_file, double publish_step_s) {
@@ -149,6 +214,25 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
     resolved.push_back(vehicle.Resolved());
   }
   params.SetResolved("vehicles", resolved);
+
+  if (params.Has("latches")) {
+    const YAML::Node latches = params.Raw("latches");
+    if (!latches.IsSequence()) {
+      params.Fail("latches", "expected a list of latches ({name, body_a, body_b, ...})");
+    }
+    YAML::Node resolved_latches;
+    for (size_t i = 0; i < latches.size(); ++i) {
+      YamlMap latch(latches[i], params.file(), "latches[" + std::to_string(i) + "]");
+      config.simulation.latches.push_back(ReadLatch(latch, config.simulation));
+      for (size_t j = 0; j < i; ++j) {
+        if (config.simulation.latches[j].name == config.simulation.latches[i].name) {
+          latch.Fail("name", "'" + config.simulation.latches[i].name + "' is used twice");
+        }
+      }
+      resolved_latches.push_back(latch.Resolved());
+    }
+    params.SetResolved("latches", resolved_latches);
+  }
   return config;
 }
 

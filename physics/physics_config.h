@@ -18,9 +18,10 @@ struct PhysicsConfig {
   std::vector<std::string> urdf;  // per vehicle: the URDF it was built from ("" when generated)
 };
 
-/// Reads `params` (world, vehicles, substeps, publish_contacts). Relative file names resolve against the
-/// scenario file's folder, then the working folder; the resolved values record absolute paths so a run
-/// restarts from its scenario.resolved.yaml. Throws bridge::ConfigError naming the file, key and line.
+/// Reads `params` (world, vehicles, latches, substeps, publish_contacts). Relative file names resolve
+/// against the scenario file's folder, then the working folder; the resolved values record absolute paths
+/// so a run restarts from its scenario.resolved.yaml. Throws bridge::ConfigError naming the file, key and
+/// line.
 PhysicsConfig ReadPhysicsConfig(bridge::YamlMap& params, const std::string& scenario_file,
                                 double publish_step_s);
 

@@ -3,16 +3,20 @@
 // tick of step k−1 drive the step from t_{k−1} to t_k.
 //
 //   subscribes  /<vehicle>/cmd               iapsim_msgs/IapCommand
+//               /latch/command               iapsim_msgs/LatchCommand (close or open a docking latch)
 //   publishes   /<vehicle>/state             iapsim_msgs/IapState
 //               /<vehicle>/odom              nav_msgs/Odometry (W -> platform, twist in the platform frame)
 //               /<vehicle>/<sub>/odom        nav_msgs/Odometry per sub-aircraft
 //               /<vehicle>/wrench/external   geometry_msgs/WrenchStamped (contacts, on the platform CoM, in P)
 //               /contacts                    iapsim_msgs/ContactArray (publish_contacts)
+//               /latch                       iapsim_msgs/LatchEvent, when a docking latch closes or opens
 
 #include <geometry_msgs/WrenchStamped.h>
 #include <iapsim_msgs/ContactArray.h>
 #include <iapsim_msgs/IapCommand.h>
 #include <iapsim_msgs/IapState.h>
+#include <iapsim_msgs/LatchCommand.h>
+#include <iapsim_msgs/LatchEvent.h>
 #include <nav_msgs/Odometry.h>
 #include <spdlog/spdlog.h>
 
@@ -85,6 +89,7 @@ class PhysicsNode : public bridge::Process {
       params.Fail("vehicles", e.what());
     }
     vehicles_.resize(sim_->vehicle_count());
+    latches_.resize(sim_->latch_count());
   }
 
   void Setup(bridge::Bus& bus) override {
@@ -95,6 +100,10 @@ class PhysicsNode : public bridge::Process {
           "/" + name + "/cmd",
           [this, v](const iapsim_msgs::IapCommand& command, const bridge::MessageInfo&) { OnCommand(v, command); });
     }
+    bus.Subscribe<iapsim_msgs::LatchCommand>(
+        "/latch/command", [this](const iapsim_msgs::LatchCommand& command, const bridge::MessageInfo&) {
+          OnLatchCommand(command);
+        });
   }
 
   void Step(const bridge::StepInfo& step) override {
@@ -108,6 +117,7 @@ class PhysicsNode : public bridge::Process {
     header.frame_id = "W";
     for (int v = 0; v < sim_->vehicle_count(); ++v) Publish(v, step.step, header);
     if (config_.publish_contacts) PublishContacts(step.step, header);
+    for (int l = 0; l < sim_->latch_count(); ++l) PublishLatchEvents(l, header);
   }
 
   void Finish(nlohmann::json* report) override {
@@ -121,6 +131,16 @@ class PhysicsNode : public bridge::Process {
       entry["commands_rejected"] = vehicles_[v].rejected + out.invalid_commands;
       entry["saturated_sub_aircraft_steps"] = out.saturated_steps;
     }
+    for (int l = 0; l < sim_->latch_count(); ++l) {
+      const LatchOutput& out = sim_->latch_output(l);
+      auto& entry = (*report)["latches"][sim_->latch(l).name];
+      entry["closes"] = out.closes;
+      entry["opens"] = out.opens;
+      entry["latched_at_end"] = out.latched;
+      entry["commands_received"] = latches_[l].commands;
+      entry["commands_refused"] = latches_[l].refused;
+    }
+    (*report)["latch_commands_unknown"] = unknown_latch_commands_;
   }
 
  private:
@@ -157,6 +177,53 @@ class PhysicsNode : public bridge::Process {
         spdlog::warn("/{}/cmd: sub-aircraft {} got a NaN, infinite or non-unit setpoint: rejected, the last holds",
                      sim_->vehicle(v).name, s);
       }
+    }
+  }
+
+  void OnLatchCommand(const iapsim_msgs::LatchCommand& command) {
+    const int l = sim_->FindLatch(command.name);
+    if (l < 0) {
+      if (unknown_latch_commands_++ == 0) {
+        spdlog::warn("/latch/command: no latch '{}': ignored", command.name);
+      }
+      return;
+    }
+    LatchBus& latch = latches_[l];
+    ++latch.commands;
+    if (command.action == iapsim_msgs::LatchCommand::OPEN) {
+      sim_->OpenLatch(l);
+      return;
+    }
+    const LatchOutput& out = sim_->latch_output(l);
+    if (command.action != iapsim_msgs::LatchCommand::CLOSE) {
+      if (latch.refused++ == 0) spdlog::warn("/latch/command: unknown action {}: ignored", command.action);
+    } else if (!sim_->CloseLatch(l) && latch.refused++ == 0) {
+      spdlog::warn(
+          "/latch/command: latch '{}' cannot close now (axial {:.4f} m, radial {:.4f} m, angle {:.2f} deg, "
+          "speed {:.3f} m/s): refused",
+          command.name, out.axial_error_m, out.radial_error_m, out.angular_error_rad * 180.0 / M_PI,
+          out.relative_speed_mps);
+    }
+  }
+
+  // One event per change since the last publish step. A latch alternates between closed and open, so
+  // replaying the changes from the last published state ends in the current one.
+  void PublishLatchEvents(int l, const std_msgs::Header& header) {
+    const LatchOutput& out = sim_->latch_output(l);
+    LatchBus& latch = latches_[l];
+    for (; latch.changes_published < out.closes + out.opens; ++latch.changes_published) {
+      latch.latched = !latch.latched;
+      latch_event_.header = header;
+      latch_event_.name = sim_->latch(l).name;
+      latch_event_.body_a = sim_->latch(l).body_a;
+      latch_event_.body_b = sim_->latch(l).body_b;
+      latch_event_.latched = latch.latched;
+      latch_event_.axial_error_m = out.axial_error_m;
+      latch_event_.radial_error_m = out.radial_error_m;
+      latch_event_.angular_error_rad = out.angular_error_rad;
+      bus_->Publish("/latch", latch_event_);
+      spdlog::info("latch '{}' {} at t = {:.3f} s", latch_event_.name, latch.latched ? "closed" : "opened",
+                   header.stamp.toSec());
     }
   }
 
@@ -230,10 +297,20 @@ class PhysicsNode : public bridge::Process {
     bus_->Publish("/contacts", contacts_);
   }
 
+  struct LatchBus {
+    bool latched = false;            // as last published
+    uint64_t changes_published = 0;  // closes and opens
+    uint64_t commands = 0;
+    uint64_t refused = 0;  // CLOSE out of tolerance, or an unknown action
+  };
+
   PhysicsConfig config_;
   std::unique_ptr<Simulation> sim_;
   std::vector<VehicleBus> vehicles_;
+  std::vector<LatchBus> latches_;
+  uint64_t unknown_latch_commands_ = 0;
   iapsim_msgs::ContactArray contacts_;
+  iapsim_msgs::LatchEvent latch_event_;
   bridge::Bus* bus_ = nullptr;
   double physics_wall_s_ = 0.0;
 };

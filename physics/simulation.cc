@@ -50,6 +50,30 @@ Simulation::Simulation(const SimulationConfig& config)
     }
     vehicles_.push_back(std::move(sim));
   }
+
+  for (const LatchSpec& spec : config.latches) {
+    const std::string what = "latch '" + spec.name + "': ";
+    if (FindLatch(spec.name) >= 0) throw std::invalid_argument(what + "the name is used twice");
+    LatchSim latch;
+    latch.spec = spec;
+    for (DockingPort* port : {&latch.spec.port_a, &latch.spec.port_b}) {
+      if (!(port->axis_B.norm() > 0.0)) throw std::invalid_argument(what + "a port axis is zero");
+      port->axis_B.normalize();
+    }
+    latch.output.body_a = world_.FindBody(spec.body_a);
+    latch.output.body_b = world_.FindBody(spec.body_b);
+    for (const auto& [body, name] :
+         {std::pair{latch.output.body_a, spec.body_a}, {latch.output.body_b, spec.body_b}}) {
+      if (body < 0) throw std::invalid_argument(what + "the world has no body '" + name + "'");
+    }
+    try {
+      latch.world_latch = world_.AddLatch(latch.output.body_a, latch.output.body_b);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(what + e.what());
+    }
+    latches_.push_back(latch);
+    UpdateLatch(latches_.back());
+  }
 }
 
 Simulation::~Simulation() = default;
@@ -104,6 +128,61 @@ void Simulation::Step() {
   }
   world_.Step();
   for (int v = 0; v < vehicle_count(); ++v) ComputeOutputs(v);
+  for (LatchSim& latch : latches_) UpdateLatch(latch);
+}
+
+int Simulation::FindLatch(const std::string& name) const {
+  for (size_t l = 0; l < latches_.size(); ++l) {
+    if (latches_[l].spec.name == name) return static_cast<int>(l);
+  }
+  return -1;
+}
+
+bool Simulation::CloseLatch(int l) { return Close(latches_.at(l)); }
+
+bool Simulation::Close(LatchSim& latch) {
+  LatchOutput& out = latch.output;
+  if (!out.latched && out.can_close) {
+    world_.CloseLatch(latch.world_latch);
+    out.latched = true;
+    ++out.closes;
+  }
+  return out.latched;
+}
+
+void Simulation::OpenLatch(int l) {
+  LatchSim& latch = latches_.at(l);
+  LatchOutput& out = latch.output;
+  if (!out.latched) return;
+  world_.OpenLatch(latch.world_latch);
+  out.latched = false;
+  out.armed = false;
+  ++out.opens;
+}
+
+void Simulation::UpdateLatch(LatchSim& latch) {
+  const LatchSpec& spec = latch.spec;
+  LatchOutput& out = latch.output;
+  const BodyState& a = world_.body(out.body_a);
+  const BodyState& b = world_.body(out.body_b);
+  const Eigen::Vector3d p_WQa = a.p_WB_m + a.q_WB * spec.port_a.p_BQ_m;
+  const Eigen::Vector3d p_WQb = b.p_WB_m + b.q_WB * spec.port_b.p_BQ_m;
+  const Eigen::Vector3d axis_a_W = a.q_WB * spec.port_a.axis_B;
+  const Eigen::Vector3d axis_b_W = b.q_WB * spec.port_b.axis_B;
+  const Eigen::Vector3d p_QaQb_W = p_WQb - p_WQa;
+  out.axial_error_m = p_QaQb_W.dot(axis_a_W);
+  out.radial_error_m = (p_QaQb_W - out.axial_error_m * axis_a_W).norm();
+  out.angular_error_rad = std::atan2(axis_a_W.cross(axis_b_W).norm(), -axis_a_W.dot(axis_b_W));
+  const Eigen::Vector3d v_WQa = a.v_WB_W + a.w_WB_W.cross(p_WQa - a.p_WB_m);
+  const Eigen::Vector3d v_WQb = b.v_WB_W + b.w_WB_W.cross(p_WQb - b.p_WB_m);
+  out.relative_speed_mps = (v_WQb - v_WQa).norm();
+
+  const bool within_tolerance = std::abs(out.axial_error_m) <= spec.axial_tolerance_m &&
+                                out.radial_error_m <= spec.radial_tolerance_m &&
+                                out.angular_error_rad <= spec.angular_tolerance_rad;
+  out.can_close = within_tolerance && out.relative_speed_mps <= spec.max_relative_speed_mps;
+  if (!within_tolerance) out.armed = true;
+  if (spec.auto_close && out.armed) Close(latch);
 }
 
 void Simulation::ComputeOutputs(int v) {

@@ -6,9 +6,15 @@
 // Sub-aircraft torques (rotor moments and drag) act on the sub-aircraft body, reacting on the air, as in the
 // seed's equations (3) and (7): the platform feels thrust only, through the joint. `torque_reaction:
 // platform` instead applies them as joint torques with the reaction on the platform (the seed's Fig. 9).
+//
+// Docking latches (seed §IV-E, Fig. 6): two bodies, say a cone on one quadrotor and a cylinder on another,
+// each carry a port. After every step the errors between the ports are measured; an automatic latch closes
+// when they are within tolerance and the ports move slowly enough relative to each other, and from then on
+// the two bodies are one rigid body until the latch is opened.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -35,10 +41,32 @@ struct VehicleSpec {
   TorqueReaction torque_reaction = TorqueReaction::kAir;
 };
 
+/// A docking port: a point Q of a body and the axis along which the mating part arrives, pointing out of
+/// this part toward it, both in the body's frame B.
+struct DockingPort {
+  Eigen::Vector3d p_BQ_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis_B = Eigen::Vector3d::UnitX();  // unit
+};
+
+struct LatchSpec {
+  std::string name;
+  std::string body_a;  // a body of the world: "<vehicle>/<link>" or an object's name
+  std::string body_b;
+  DockingPort port_a;
+  DockingPort port_b;
+  double axial_tolerance_m = 0.005;   // of |d_y|
+  double radial_tolerance_m = 0.005;  // of d_xz
+  // between axis a and −axis b: the ports face each other
+  double angular_tolerance_rad = 10.0 * M_PI / 180.0;
+  double max_relative_speed_mps = 0.5;  // of port b relative to port a, to close
+  bool auto_close = true;               // close by itself when it can (else only on request)
+};
+
 struct SimulationConfig {
   double step_s = 0.001;
   WorldConfig world;
   std::vector<VehicleSpec> vehicles;
+  std::vector<LatchSpec> latches;
 };
 
 /// What one sub-aircraft did in the last step.
@@ -65,9 +93,26 @@ struct VehicleOutput {
   uint64_t saturated_steps = 0;    // sub-aircraft steps where a mixer cut
 };
 
+/// A latch after the last step. The errors are those of port b relative to port a, in a's port axes.
+struct LatchOutput {
+  int body_a = 0;  // body ids in the world
+  int body_b = 0;
+  double axial_error_m = 0.0;       // d_y: (p_WQb − p_WQa)·axis_a; > 0: b's port short of a's
+  double radial_error_m = 0.0;      // d_xz: the distance of port b from a's port axis
+  double angular_error_rad = 0.0;   // between axis a and −axis b
+  double relative_speed_mps = 0.0;  // |v_WQb − v_WQa|
+  bool can_close = false;           // every error within tolerance and slow enough
+  bool latched = false;
+  // an automatic latch that was opened waits until its ports have left tolerance before closing again
+  bool armed = true;
+  uint64_t closes = 0;
+  uint64_t opens = 0;
+};
+
 class Simulation {
  public:
-  /// Throws std::invalid_argument naming the vehicle for anything the world cannot build.
+  /// Throws std::invalid_argument naming the vehicle or latch for anything the world cannot build. An
+  /// automatic latch whose ports start within tolerance starts closed.
   explicit Simulation(const SimulationConfig& config);
   ~Simulation();
 
@@ -87,6 +132,16 @@ class Simulation {
   MultibodyWorld& mutable_world() { return world_; }
   const VehicleOutput& output(int v) const { return vehicles_[v]->output; }
 
+  int latch_count() const { return static_cast<int>(latches_.size()); }
+  const LatchSpec& latch(int l) const { return latches_[l].spec; }
+  const LatchOutput& latch_output(int l) const { return latches_[l].output; }
+  /// The latch called `name`, or -1.
+  int FindLatch(const std::string& name) const;
+  /// Closes latch l now if it can (see LatchOutput::can_close); returns whether it is closed.
+  bool CloseLatch(int l);
+  /// Opens latch l now; an automatic latch is disarmed until its ports have left tolerance.
+  void OpenLatch(int l);
+
  private:
   struct SubAircraftSim {
     std::unique_ptr<Rotors> rotors;
@@ -99,13 +154,22 @@ class Simulation {
     VehicleOutput output;
   };
 
+  struct LatchSim {
+    LatchSpec spec;
+    int world_latch = 0;
+    LatchOutput output;
+  };
+
   void ApplySubAircraft(VehicleSim& vehicle, int s);
   void ComputeOutputs(int v);
+  bool Close(LatchSim& latch);
+  void UpdateLatch(LatchSim& latch);
 
   MultibodyWorld world_;
   Eigen::Vector3d gravity_W_;
   std::vector<std::unique_ptr<VehicleSim>> vehicles_;
   std::vector<int> vehicle_of_body_;  // -1: not part of a vehicle
+  std::vector<LatchSim> latches_;
 };
 
 }  // namespace iapsim::physics
