@@ -165,8 +165,10 @@ TEST(Bus, BlockingPublisherCountsWhatItCouldNotSend) {
   uint64_t received = 0;
   slow.SubscribeRaw("/s", [&](const uint8_t*, size_t, const MessageInfo&) { ++received; });
   Handshake(publisher, slow);
+  // 100 kB messages: 10 MB in all, far more than the queues and the kernel's socket buffers hold, so some
+  // must time out whatever the machine's load (1 kB ones all fit in the socket buffers on an idle one)
   std_msgs::String text;
-  text.data.assign(1000, 'x');
+  text.data.assign(100000, 'x');
   for (int i = 0; i < 100; ++i) publisher.Publish("/s", text);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
   while (std::chrono::steady_clock::now() < deadline) slow.Spin(milliseconds(10));

@@ -48,4 +48,6 @@ inline ros::Time ToRosTime(int64_t ns) {
   return t;
 }
 
+inline int64_t ToNanoseconds(const ros::Time& t) { return static_cast<int64_t>(t.toNSec()); }
+
 }  // namespace iapsim::bridge

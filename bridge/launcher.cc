@@ -85,15 +85,6 @@ std::string Trimmed(std::string text) {
   return text;
 }
 
-std::string UtcStamp() {
-  const std::time_t now = std::time(nullptr);
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char text[32];
-  std::strftime(text, sizeof(text), "%Y%m%d-%H%M%S", &utc);
-  return text;
-}
-
 std::string DescribeExit(int status) {
   if (WIFEXITED(status)) return "exited with code " + std::to_string(WEXITSTATUS(status));
   if (WIFSIGNALED(status)) {
@@ -366,6 +357,15 @@ std::string MakeRunDir(const LaunchOptions& options, const Scenario& scenario) {
 }
 
 }  // namespace
+
+std::string UtcStamp() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof(text), "%Y%m%d-%H%M%S", &utc);
+  return text;
+}
 
 std::string ExecutableDir() {
   std::error_code error;

@@ -29,6 +29,9 @@ struct LaunchResult {
 
 LaunchResult Launch(const LaunchOptions& options);
 
+/// The current UTC time as YYYYMMDD-HHMMSS (run folder names).
+std::string UtcStamp();
+
 /// Directory holding the running executable (where sibling process executables are found).
 std::string ExecutableDir();
 

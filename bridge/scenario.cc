@@ -123,6 +123,10 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
   ReadTopicList(recording, "exclude", &s.recording.exclude);
   recording.Finish();
 
+  // what `iapsim run` computes from the recording afterwards; tools/ validates it
+  s.evaluation = top.Raw("evaluation");
+  if (s.evaluation && !s.evaluation.IsMap()) top.Fail("evaluation", "expected a map (for example tracking: {...})");
+
   const YAML::Node processes = top.Raw("processes");
   if (!processes || !processes.IsMap() || processes.size() == 0) {
     top.Fail("processes", "expected a map of process name -> {exec, role, rate_hz, params}");

@@ -69,6 +69,7 @@ struct Scenario {
   RecordingConfig recording;
   std::vector<ProcessConfig> processes;  // recorder included when recording is enabled
   std::string clock_owner;               // the process with role clock
+  YAML::Node evaluation;                 // after-run analysis of the recording (tools/ reads it)
   YAML::Node resolved;                   // every value as used, defaults included
 
   int64_t step_ns() const;

@@ -1,25 +1,44 @@
-// iapsim_control: the control process (a lockstep participant at its own rate). It turns the vehicle's
-// state into per-sub-aircraft commands for the simulated flight controllers.
+// iapsim_control: the IAP computer (a lockstep participant at its own rate, 200 Hz in the paper). It turns
+// the vehicle's state into per-sub-aircraft commands for the simulated flight controllers.
 //
-//   mode: hover   a constant command source: from the first state, each sub-aircraft's share of the hover
-//                 wrench by the allocation (17) at the platform's attitude levelled (its yaw kept), as a
+//   mode: track   the tracker (10) or (16), picked by the rank test (8), follows `trajectory` (time 0 = the
+//                 first state); allocation (17) within the thrust limits; (18) per sub-aircraft.
+//   mode: hover   a constant, open-loop command source: from the first state, each sub-aircraft's share of
+//                 the hover wrench by (17) at the platform's attitude levelled (its yaw kept), as a
 //                 collective thrust and an attitude from (18) with the sub-aircraft's initial yaw.
 //
-//   subscribes  /<vehicle>/state   iapsim_msgs/IapState
-//   publishes   /<vehicle>/cmd     iapsim_msgs/IapCommand (stamped with the state it answers)
+//   subscribes  /<vehicle>/state      iapsim_msgs/IapState
+//   publishes   /<vehicle>/cmd        iapsim_msgs/IapCommand (stamped with the state it answers)
+//               /<vehicle>/setpoint   iapsim_msgs/Setpoint   (track: the reference of that command)
+//               /<vehicle>/wrench/command  geometry_msgs/WrenchStamped (track: U, in P about its origin)
 
+#include <geometry_msgs/WrenchStamped.h>
 #include <iapsim_msgs/IapCommand.h>
 #include <iapsim_msgs/IapState.h>
+#include <iapsim_msgs/Setpoint.h>
 
 #include <cmath>
+#include <optional>
 
 #include "bridge/eigen_msgs.h"
 #include "bridge/process.h"
 #include "control/allocation.h"
+#include "control/control_config.h"
+#include "control/iap_controller.h"
+#include "control/trajectory.h"
 #include "model/vehicle.h"
 
 namespace iapsim::control {
 namespace {
+
+PlatformState PlatformStateOf(const iapsim_msgs::BodyState& body) {
+  PlatformState state;
+  state.p_WP_m = bridge::FromMsg(body.pose_W.position);
+  state.q_WP = bridge::FromMsg(body.pose_W.orientation);
+  state.v_WP_P_mps = bridge::FromMsg(body.twist_B.linear);
+  state.w_WP_P_radps = bridge::FromMsg(body.twist_B.angular);
+  return state;
+}
 
 class ControlNode : public bridge::Process {
  public:
@@ -28,8 +47,16 @@ class ControlNode : public bridge::Process {
     vehicle.Required("name", &vehicle_name_);
     vehicle_ = model::LoadVehicle(bridge::ReadFilePath(vehicle, "file", context.scenario.file));
     vehicle.Finish();
-    params.OptionalChoice("mode", &mode_, {"hover"});
-    params.OptionalInRange("gravity_mps2", &gravity_mps2_, 0.0, 100.0);
+    if (!params.Has("mode")) params.Fail("mode", "is required: track or hover");
+    params.OptionalChoice("mode", &mode_, {"track", "hover"});
+    config_ = ReadControllerConfig(params);
+    if (mode_ == "track") {
+      bridge::YamlMap trajectory = params.Map("trajectory");
+      trajectory_ = ReadTrajectory(trajectory, context.scenario.file);
+      trajectory.Finish();
+      controller_.emplace(vehicle_, config_);
+    }
+    period_s_ = 1.0 / context.self.rate_hz;
   }
 
   void Setup(bridge::Bus& bus) override {
@@ -43,23 +70,71 @@ class ControlNode : public bridge::Process {
 
   void Step(const bridge::StepInfo&) override {
     if (!have_state_ || state_.bodies.empty()) return;  // realtime: nothing to answer yet
-    if (command_.sub_aircraft.empty()) HoldHover();
+    if (controller_) {
+      Track();
+    } else if (command_.sub_aircraft.empty()) {
+      HoldHover();
+    }
     command_.header.stamp = state_.header.stamp;
     command_.step = state_.step;
     bus_->Publish("/" + vehicle_name_ + "/cmd", command_);
     ++commands_;
   }
 
-  void Finish(nlohmann::json* report) override { (*report)["commands_sent"] = commands_; }
+  void Finish(nlohmann::json* report) override {
+    (*report)["commands_sent"] = commands_;
+    (*report)["fully_actuated"] = Allocation(vehicle_).fully_actuated();
+    if (controller_) {
+      (*report)["rejected_updates"] = controller_->rejected_updates();
+      (*report)["saturated_updates"] = controller_->saturated_updates();
+    }
+  }
 
  private:
+  void Track() {
+    const int64_t stamp_ns = bridge::ToNanoseconds(state_.header.stamp);
+    if (!start_ns_) start_ns_ = stamp_ns;
+    const double t_s = static_cast<double>(stamp_ns - *start_ns_) * 1e-9;
+    const PoseReference reference = trajectory_->Sample(t_s);
+    controller_->Update(reference, PlatformStateOf(state_.bodies[0]), Vector6d::Zero(), period_s_);
+
+    const ControlOutput& out = controller_->output();
+    command_.sub_aircraft.resize(out.sub_aircraft.size());
+    for (size_t i = 0; i < out.sub_aircraft.size(); ++i) {
+      auto& sub = command_.sub_aircraft[i];
+      sub.mode = iapsim_msgs::SubAircraftCommand::MODE_ATTITUDE;
+      sub.thrust_N = out.sub_aircraft[i].thrust_N;
+      sub.attitude_WS = bridge::ToQuaternionMsg(out.sub_aircraft[i].q_WS);
+    }
+    PublishReference(reference);
+    geometry_msgs::WrenchStamped wrench;
+    wrench.header.stamp = state_.header.stamp;
+    wrench.header.frame_id = "P";
+    wrench.wrench.force = bridge::ToVector3Msg(out.wrench_P.head<3>());
+    wrench.wrench.torque = bridge::ToVector3Msg(out.wrench_P.tail<3>());
+    bus_->Publish("/" + vehicle_name_ + "/wrench/command", wrench);
+  }
+
+  void PublishReference(const PoseReference& reference) {
+    iapsim_msgs::Setpoint setpoint;
+    setpoint.header.stamp = state_.header.stamp;
+    setpoint.header.frame_id = "W";
+    setpoint.dof = reference.five_dof ? iapsim_msgs::Setpoint::DOF_5 : iapsim_msgs::Setpoint::DOF_6;
+    setpoint.pose_W.position = bridge::ToPointMsg(reference.p_WP_m);
+    setpoint.pose_W.orientation = bridge::ToQuaternionMsg(reference.q_WP);
+    setpoint.twist_W.linear = bridge::ToVector3Msg(reference.v_WP_W_mps);
+    setpoint.twist_W.angular = bridge::ToVector3Msg(reference.q_WP * reference.w_WP_P_radps);
+    setpoint.accel_W.linear = bridge::ToVector3Msg(reference.a_WP_W_mps2);
+    setpoint.accel_W.angular = bridge::ToVector3Msg(reference.q_WP * reference.dw_WP_P_radps2);
+    bus_->Publish("/" + vehicle_name_ + "/setpoint", setpoint);
+  }
+
   void HoldHover() {
     const Eigen::Quaterniond q_WP = bridge::FromMsg(state_.bodies[0].pose_W.orientation).normalized();
-    const Eigen::Vector3d x_W = q_WP * Eigen::Vector3d::UnitX();
-    const double yaw_rad = std::atan2(x_W.y(), x_W.x());
+    const double yaw_rad = YawOf(q_WP.toRotationMatrix());
     const Eigen::Quaterniond level(Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()));
     const Allocation allocation(vehicle_);
-    const Eigen::VectorXd thrusts_P = allocation.Allocate(HoverWrench(vehicle_, level, gravity_mps2_));
+    const Eigen::VectorXd thrusts_P = allocation.Allocate(HoverWrench(vehicle_, level, config_.gravity_mps2));
     command_.sub_aircraft.resize(vehicle_.sub_aircraft.size());
     for (size_t i = 0; i < vehicle_.sub_aircraft.size(); ++i) {
       const Eigen::Vector3d thrust_W = level * thrusts_P.segment<3>(3 * i);
@@ -74,11 +149,15 @@ class ControlNode : public bridge::Process {
 
   std::string vehicle_name_;
   model::Vehicle vehicle_;
-  std::string mode_ = "hover";
-  double gravity_mps2_ = 9.81;
+  std::string mode_;
+  IapControllerConfig config_;
+  std::unique_ptr<Trajectory> trajectory_;
+  std::optional<IapController> controller_;
+  double period_s_ = 0.005;
   bridge::Bus* bus_ = nullptr;
   iapsim_msgs::IapState state_;
   bool have_state_ = false;
+  std::optional<int64_t> start_ns_;
   iapsim_msgs::IapCommand command_;
   uint64_t commands_ = 0;
 };

@@ -19,6 +19,7 @@
 #include "bridge/scenario.h"
 #include "model/urdf.h"
 #include "model/vehicle.h"
+#include "tools/flight_evaluation.h"
 
 namespace iapsim::tools {
 namespace {
@@ -46,6 +47,14 @@ std::string YamlFlowList(const std::vector<std::string>& items) {
 }
 
 int Launch(const RunArgs& args, std::vector<std::string> overrides) {
+  // the evaluation section is checked before the run, so a typo does not cost a flight
+  std::optional<TrackingEvaluation> tracking;
+  try {
+    tracking = ReadTrackingEvaluation(LoadScenario(args.scenario, overrides));
+  } catch (const ConfigError& e) {
+    std::cerr << "iapsim: invalid configuration: " << e.what() << std::endl;
+    return 2;
+  }
   LaunchOptions options;
   options.scenario_path = args.scenario;
   options.overrides = std::move(overrides);
@@ -81,6 +90,7 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
                 result.run_dir.c_str(), static_cast<unsigned long long>(total), recorded.size());
   }
   std::printf("  %s/log.txt, logs/           launcher and per-process logs\n", result.run_dir.c_str());
+  if (tracking) PrintTracking(EvaluateTracking(result.run_dir, *tracking));
   return 0;
 }
 
@@ -113,6 +123,17 @@ int Replay(const ReplayArgs& args) {
   overrides.push_back("processes.replayer.params.topics=" + YamlFlowList(args.topics));
   overrides.push_back("processes.replayer.params.map=" + YamlFlowList(args.map));
   return Launch(args.run, overrides);
+}
+
+int Evaluate(const std::string& run_dir) {
+  const Scenario scenario = LoadScenario(run_dir + "/scenario.resolved.yaml");
+  const std::optional<TrackingEvaluation> tracking = ReadTrackingEvaluation(scenario);
+  if (!tracking) {
+    std::cerr << "iapsim: " << scenario.file << ": no evaluation.tracking section: nothing to evaluate" << std::endl;
+    return 2;
+  }
+  PrintTracking(EvaluateTracking(run_dir, *tracking));
+  return 0;
 }
 
 int Info(const std::string& bag_path) {

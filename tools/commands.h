@@ -26,6 +26,19 @@ struct ReplayArgs {
 };
 int Replay(const ReplayArgs& args);
 
+/// Recomputes the tracking metrics and plots of a finished run from its recording (evaluation.tracking
+/// of its scenario.resolved.yaml).
+int Evaluate(const std::string& run_dir);
+
+struct RegressArgs {
+  std::string suite_dir = "configs/regression";
+  std::string out_dir;              // default runs/regress-<UTC time>
+  std::vector<std::string> only;    // flight names; empty: all
+};
+/// Runs every regression flight of DIR/suite.yaml in lockstep, evaluates it, compares the metrics with the
+/// suite's thresholds and prints a table. Returns 1 on any regression, 2 on a bad suite.
+int Regress(const RegressArgs& args);
+
 int Info(const std::string& bag);
 
 struct ExportArgs {

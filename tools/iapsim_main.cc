@@ -36,6 +36,18 @@ int main(int argc, char** argv) {
   replay_cmd->add_option("--seed", replay.run.seed, "seed of every random stream");
   replay_cmd->add_option("--set", replay.run.overrides, "override a scenario key: KEY=VALUE (repeatable)");
 
+  std::string evaluate_run;
+  auto* evaluate_cmd = app.add_subcommand("evaluate", "recompute a run's tracking metrics and plots");
+  evaluate_cmd->add_option("run_dir", evaluate_run, "run directory")->required()->check(CLI::ExistingDirectory);
+
+  RegressArgs regress;
+  auto* regress_cmd = app.add_subcommand(
+      "regress", "run the regression flights of a suite, compare with its thresholds, exit 1 on a regression");
+  regress_cmd->add_option("suite_dir", regress.suite_dir, "folder with suite.yaml (default configs/regression)")
+      ->check(CLI::ExistingDirectory);
+  regress_cmd->add_option("--out", regress.out_dir, "where the runs go (default runs/regress-<UTC time>)");
+  regress_cmd->add_option("--only", regress.only, "run only these flights (repeatable)");
+
   std::string info_bag;
   auto* info_cmd = app.add_subcommand("info", "list a bag's topics, types, counts and rates");
   info_cmd->add_option("bag", info_bag, "bag file")->required()->check(CLI::ExistingFile);
@@ -79,6 +91,8 @@ int main(int argc, char** argv) {
   try {
     if (*run_cmd) return Run(run);
     if (*replay_cmd) return Replay(replay);
+    if (*evaluate_cmd) return Evaluate(evaluate_run);
+    if (*regress_cmd) return Regress(regress);
     if (*info_cmd) return Info(info_bag);
     if (*export_cmd) return Export(exp);
     if (*topics_cmd) return Topics(topics);

@@ -43,9 +43,9 @@ Eigen::Matrix3d Hat(const Eigen::Vector3d& v) {
 // An under-actuated (collinear) IAP gets its thrust vectors in P instead, and only climbs, pitches and
 // yaws: thrust fixed in W acquires a sideways component in P as soon as the platform rolls, and sideways
 // thrust has a lever of millimetres about the joint line, where the platform's inertia is tiny (two-line:
-// 8e-4 kg·m²). With the joints below the centre of mass that is an inverted pendulum about the line with a
-// time constant of 40 ms: open loop it tumbles chaotically and no two integrators can agree over 10 s.
-// In P, the thrusts have no sideways sum, so that mode is never excited.
+// 8e-4 kg·m²): a pendulum about the line with a period of about 0.5 s and no damping, which open-loop
+// sideways thrust keeps swinging until the two integrators' small phase errors dominate. In P, the thrusts
+// have no sideways sum, so that mode is never excited.
 class Manoeuvre {
  public:
   explicit Manoeuvre(const model::Vehicle& vehicle) : n_(static_cast<int>(vehicle.sub_aircraft.size())) {

@@ -1,0 +1,213 @@
+#include "tools/flight_evaluation.h"
+
+#include <iapsim_msgs/IapState.h>
+#include <iapsim_msgs/Setpoint.h>
+#include <sys/wait.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <stdexcept>
+
+#include "bridge/bag.h"
+#include "bridge/config.h"
+#include "bridge/eigen_msgs.h"
+#include "bridge/message.h"
+
+namespace iapsim::tools {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr std::array<const char*, 3> kAxes = {"x", "y", "z"};
+constexpr std::array<const char*, 3> kAngles = {"roll", "pitch", "yaw"};
+
+struct Pose {
+  Eigen::Vector3d p_m;
+  Eigen::Vector3d rpy_rad;  // ZYX Euler angles
+};
+
+Eigen::Vector3d EulerZyx(const Eigen::Quaterniond& q) {
+  const Eigen::Matrix3d R = q.normalized().toRotationMatrix();
+  return Eigen::Vector3d(std::atan2(R(2, 1), R(2, 2)), -std::asin(std::clamp(R(2, 0), -1.0, 1.0)),
+                         std::atan2(R(1, 0), R(0, 0)));
+}
+
+Pose PoseOf(const geometry_msgs::Pose& pose) {
+  return {bridge::FromMsg(pose.position), EulerZyx(bridge::FromMsg(pose.orientation))};
+}
+
+double WrapPi(double a) { return std::remainder(a, 2.0 * M_PI); }
+
+// Per-axis RMSE and max |e| accumulated over the samples.
+struct ErrorStats {
+  Eigen::Vector3d sum_squares = Eigen::Vector3d::Zero();
+  Eigen::Vector3d max_abs = Eigen::Vector3d::Zero();
+  void Add(const Eigen::Vector3d& e) {
+    sum_squares += e.cwiseAbs2();
+    max_abs = max_abs.cwiseMax(e.cwiseAbs());
+  }
+  nlohmann::json Json(const std::array<const char*, 3>& names, double scale, size_t n, bool rms) const {
+    nlohmann::json out;
+    for (int i = 0; i < 3; ++i) {
+      out[names[i]] = scale * (rms ? std::sqrt(sum_squares[i] / static_cast<double>(n)) : max_abs[i]);
+    }
+    return out;
+  }
+};
+
+void Plot(const std::string& csv, const std::string& run_dir, const std::string& title, nlohmann::json* tracking) {
+  // Debian's python3 is where install-deps puts matplotlib (a pyenv or venv python3 on PATH may lack it)
+  const std::string python = std::ifstream("/usr/bin/python3").good() ? "/usr/bin/python3" : "python3";
+  const std::string command = python + " '" + IAPSIM_PLOT_TRACKING + "' '" + csv + "' '" + run_dir + "' '" + title + "'";
+  const int status = std::system(command.c_str());
+  if (status != 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    std::fprintf(stderr, "iapsim: plotting failed (%s); metrics and %s are complete\n", command.c_str(), csv.c_str());
+    return;
+  }
+  (*tracking)["plots"] = {run_dir + "/tracking_pose.png", run_dir + "/tracking_error.png"};
+}
+
+}  // namespace
+
+std::optional<TrackingEvaluation> ReadTrackingEvaluation(const bridge::Scenario& scenario) {
+  if (!scenario.evaluation) return std::nullopt;
+  bridge::YamlMap evaluation(scenario.evaluation, scenario.file, "evaluation");
+  if (!evaluation.Has("tracking")) {
+    evaluation.Finish();
+    return std::nullopt;
+  }
+  TrackingEvaluation out;
+  bridge::YamlMap tracking = evaluation.Map("tracking");
+  tracking.Optional("vehicle", &out.vehicle);
+  tracking.Optional("controller", &out.controller);
+  tracking.Optional("plots", &out.plots);
+  tracking.Finish();
+  evaluation.Finish();
+  return out;
+}
+
+nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvaluation& evaluation) {
+  const std::string bag_path = run_dir + "/run.bag";
+  const std::string state_topic = "/" + evaluation.vehicle + "/state";
+  const std::string setpoint_topic = "/" + evaluation.vehicle + "/setpoint";
+  bridge::BagReader bag(bag_path);
+
+  // States by physics stamp; each setpoint is stamped with the state it answered.
+  std::map<int64_t, Pose> states;
+  uint64_t mixer_saturated_steps = 0;
+  std::vector<std::pair<int64_t, Pose>> references;
+  bool five_dof = false;
+  std::string error;
+  bag.ForEach({state_topic, setpoint_topic}, [&](const bridge::BagMessage& m) {
+    if (m.topic == state_topic) {
+      iapsim_msgs::IapState state;
+      if (!bridge::Decode(m.bytes, &state, &error) || state.bodies.empty()) return false;
+      states[bridge::ToNanoseconds(state.header.stamp)] = PoseOf(state.bodies[0].pose_W);
+      for (const auto& sub : state.sub_aircraft) {
+        if (sub.saturated) {
+          ++mixer_saturated_steps;
+          break;
+        }
+      }
+    } else {
+      iapsim_msgs::Setpoint setpoint;
+      if (!bridge::Decode(m.bytes, &setpoint, &error)) return false;
+      five_dof = five_dof || setpoint.dof == iapsim_msgs::Setpoint::DOF_5;
+      references.emplace_back(bridge::ToNanoseconds(setpoint.header.stamp), PoseOf(setpoint.pose_W));
+    }
+    return true;
+  });
+  if (!error.empty()) throw std::runtime_error(bag_path + ": undecodable message: " + error);
+  if (states.empty() || references.empty()) {
+    throw std::runtime_error(bag_path + ": tracking needs " + state_topic + " and " + setpoint_topic +
+                             " recorded (found " + std::to_string(states.size()) + " states, " +
+                             std::to_string(references.size()) + " setpoints)");
+  }
+
+  const std::string csv_path = run_dir + "/tracking.csv";
+  std::ofstream csv(csv_path);
+  csv << "t_s,x_ref_m,y_ref_m,z_ref_m,x_m,y_m,z_m,roll_ref_deg,pitch_ref_deg,yaw_ref_deg,roll_deg,pitch_deg,yaw_deg\n";
+  ErrorStats position, attitude;
+  size_t n = 0;
+  const int64_t t0_ns = references.front().first;
+  for (const auto& [stamp_ns, reference] : references) {
+    const auto state = states.find(stamp_ns);
+    if (state == states.end()) continue;  // a state not recorded (recording filters): nothing to compare
+    const Pose& actual = state->second;
+    position.Add(actual.p_m - reference.p_m);
+    Eigen::Vector3d e_rpy;
+    for (int i = 0; i < 3; ++i) e_rpy[i] = WrapPi(actual.rpy_rad[i] - reference.rpy_rad[i]);
+    attitude.Add(e_rpy);
+    ++n;
+    char line[512];
+    std::snprintf(line, sizeof line, "%.3f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n",
+                  static_cast<double>(stamp_ns - t0_ns) * 1e-9, reference.p_m.x(), reference.p_m.y(),
+                  reference.p_m.z(), actual.p_m.x(), actual.p_m.y(), actual.p_m.z(),
+                  reference.rpy_rad.x() * kRadToDeg, reference.rpy_rad.y() * kRadToDeg,
+                  reference.rpy_rad.z() * kRadToDeg, actual.rpy_rad.x() * kRadToDeg,
+                  actual.rpy_rad.y() * kRadToDeg, actual.rpy_rad.z() * kRadToDeg);
+    csv << line;
+  }
+  csv.close();
+  if (n == 0) throw std::runtime_error(bag_path + ": no setpoint has a state of the same stamp");
+
+  nlohmann::json tracking;
+  tracking["vehicle"] = evaluation.vehicle;
+  tracking["samples"] = n;
+  tracking["duration_s"] = static_cast<double>(references.back().first - t0_ns) * 1e-9;
+  tracking["five_dof"] = five_dof;
+  tracking["position_rmse_m"] = position.Json(kAxes, 1.0, n, true);
+  tracking["position_max_m"] = position.Json(kAxes, 1.0, n, false);
+  tracking["attitude_rmse_deg"] = attitude.Json(kAngles, kRadToDeg, n, true);
+  tracking["attitude_max_deg"] = attitude.Json(kAngles, kRadToDeg, n, false);
+  tracking["mixer_saturated_steps"] = mixer_saturated_steps;
+  tracking["csv"] = csv_path;
+
+  // the controller's own count of allocations cut to the thrust limits, from the run's metrics
+  const std::string metrics_path = run_dir + "/metrics.json";
+  std::ifstream metrics_in(metrics_path);
+  nlohmann::json metrics = nlohmann::json::parse(metrics_in, nullptr, false);
+  metrics_in.close();
+  if (!metrics.is_object()) throw std::runtime_error(metrics_path + ": missing or not JSON");
+  const auto& controller = metrics["processes"][evaluation.controller]["process"];
+  if (!controller.contains("saturated_updates")) {
+    throw std::runtime_error(metrics_path + ": process '" + evaluation.controller +
+                             "' reports no saturated_updates (is it an iapsim_control in mode track?)");
+  }
+  tracking["saturated_updates"] = controller["saturated_updates"];
+
+  if (evaluation.plots) Plot(csv_path, run_dir, evaluation.vehicle, &tracking);
+  metrics["tracking"] = tracking;
+  std::ofstream(metrics_path) << metrics.dump(2) << "\n";
+  return tracking;
+}
+
+void PrintTracking(const nlohmann::json& tracking) {
+  const auto row = [&](const char* label, const char* key, const std::array<const char*, 3>& names,
+                       const char* unit) {
+    std::printf("    %-16s", label);
+    for (const char* name : names) std::printf(" %s %8.4f", name, tracking[key][name].get<double>());
+    std::printf("  %s\n", unit);
+  };
+  std::printf("  tracking of %s over %.1f s (%zu samples%s):\n", tracking["vehicle"].get<std::string>().c_str(),
+              tracking["duration_s"].get<double>(), tracking["samples"].get<size_t>(),
+              tracking["five_dof"].get<bool>() ? ", 5-DOF: roll is free" : "");
+  row("position RMSE", "position_rmse_m", kAxes, "m");
+  row("position max", "position_max_m", kAxes, "m");
+  row("attitude RMSE", "attitude_rmse_deg", kAngles, "deg");
+  row("attitude max", "attitude_max_deg", kAngles, "deg");
+  std::printf("    saturation: %llu allocations cut, %llu steps with a mixer cut\n",
+              static_cast<unsigned long long>(tracking["saturated_updates"].get<uint64_t>()),
+              static_cast<unsigned long long>(tracking["mixer_saturated_steps"].get<uint64_t>()));
+  std::printf("    %s\n", tracking["csv"].get<std::string>().c_str());
+  if (tracking.contains("plots")) {
+    for (const auto& plot : tracking["plots"]) std::printf("    %s\n", plot.get<std::string>().c_str());
+  }
+}
+
+}  // namespace iapsim::tools

@@ -1,0 +1,34 @@
+#pragma once
+// Tracking evaluation of a recorded flight (issue 4): the reference the controller published on
+// /<vehicle>/setpoint against the platform's state of the same physics step on /<vehicle>/state, as the
+// seed's Figs. 11-14 compare them. Writes tracking.csv, PNG plots (tools/plot_tracking.py) and a
+// "tracking" section into the run's metrics.json.
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "bridge/scenario.h"
+
+namespace iapsim::tools {
+
+struct TrackingEvaluation {
+  std::string vehicle = "iap";
+  std::string controller = "control";  // the process whose report counts allocation saturation
+  bool plots = true;
+};
+
+/// The scenario's `evaluation: {tracking: {vehicle, controller, plots}}`, or nothing when it has none.
+/// Throws bridge::ConfigError naming the scenario file and key.
+std::optional<TrackingEvaluation> ReadTrackingEvaluation(const bridge::Scenario& scenario);
+
+/// Evaluates run_dir/run.bag. Metrics: position error per W axis (RMSE, max |e|, m), ZYX Euler angle error
+/// (RMSE, max |e|, degrees; for 5-DOF references pitch and yaw are exactly the x axis's elevation and
+/// heading, and roll is the free swing), saturation counts. Throws std::runtime_error naming the file
+/// when the recording lacks the topics.
+nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvaluation& evaluation);
+
+/// Prints the metrics as a short table.
+void PrintTracking(const nlohmann::json& tracking);
+
+}  // namespace iapsim::tools
