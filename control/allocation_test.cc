@@ -31,6 +31,32 @@ TEST(Allocation, PseudoInverseIsMoorePenrose) {
   }
 }
 
+TEST(Allocation, MatchesHandComputedCases) {
+  // two-line: d_1,2 = (±0.5, 0, −0.05); the torque rows are d_i^ (equation (6))
+  const Allocation two_line(Shipped("two_line"));
+  Eigen::Matrix3d hat_1;
+  hat_1 << 0, 0.05, 0, -0.05, 0, -0.5, 0, 0.5, 0;
+  EXPECT_LT((two_line.B().block<3, 3>(3, 0) - hat_1).norm(), 1e-12);
+  EXPECT_LT((two_line.B().block<3, 3>(0, 3) - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  // a vertical force is shared equally; the roll moment about the joint line cannot be made at all
+  const Eigen::VectorXd lift = two_line.Allocate((Vector6d() << 0, 0, -40, 0, 0, 0).finished());
+  EXPECT_LT((lift - (Eigen::VectorXd(6) << 0, 0, -20, 0, 0, -20).finished()).norm(), 1e-12);
+
+  // three-star: a yaw moment τ becomes equal tangential forces τ / (3 d_h) at the joints (their radial
+  // d_v terms cancel around the triangle), a vertical force an equal split
+  const model::Vehicle star = Shipped("three_star");
+  const Allocation three_star(star);
+  const double tau_Nm = 3.0;
+  const Eigen::VectorXd yaw = three_star.Allocate((Vector6d() << 0, 0, 0, 0, 0, tau_Nm).finished());
+  for (int i = 0; i < 3; ++i) {
+    const Eigen::Vector3d& d = star.sub_aircraft[i].joint_P_m;
+    const Eigen::Vector3d tangential = Eigen::Vector3d(-d.y(), d.x(), 0.0).normalized();
+    EXPECT_LT((yaw.segment<3>(3 * i) - tau_Nm / (3 * 0.48) * tangential).norm(), 1e-9) << i;
+  }
+  const Eigen::VectorXd up = three_star.Allocate((Vector6d() << 0, 0, -30, 0, 0, 0).finished());
+  for (int i = 0; i < 3; ++i) EXPECT_LT((up.segment<3>(3 * i) - Eigen::Vector3d(0, 0, -10)).norm(), 1e-9) << i;
+}
+
 TEST(Allocation, HoverThrustsCarryTheWeightWithNoMoment) {
   for (const std::string name : {"three_star", "three_square", "two_line", "three_line"}) {
     SCOPED_TRACE(name);

@@ -2,16 +2,19 @@
 // the vehicle's state into per-sub-aircraft commands for the simulated flight controllers.
 //
 //   mode: track   the tracker (10) or (16), picked by the rank test (8), follows `trajectory` (time 0 = the
-//                 first state); allocation (17) within the thrust limits; (18) per sub-aircraft.
+//                 first state) or the pose commands arriving on `reference.topic` (a replayed command log:
+//                 `iapsim replay`); allocation (17) within the thrust limits; (18) per sub-aircraft.
 //   mode: hover   a constant, open-loop command source: from the first state, each sub-aircraft's share of
 //                 the hover wrench by (17) at the platform's attitude levelled (its yaw kept), as a
 //                 collective thrust and an attitude from (18) with the sub-aircraft's initial yaw.
 //
 //   subscribes  /<vehicle>/state      iapsim_msgs/IapState
+//               reference.topic       geometry_msgs/PoseStamped or iapsim_msgs/Setpoint (track with reference)
 //   publishes   /<vehicle>/cmd        iapsim_msgs/IapCommand (stamped with the state it answers)
 //               /<vehicle>/setpoint   iapsim_msgs/Setpoint   (track: the reference of that command)
 //               /<vehicle>/wrench/command  geometry_msgs/WrenchStamped (track: U, in P about its origin)
 
+#include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/WrenchStamped.h>
 #include <iapsim_msgs/IapCommand.h>
 #include <iapsim_msgs/IapState.h>
@@ -23,6 +26,7 @@
 #include "bridge/eigen_msgs.h"
 #include "bridge/process.h"
 #include "control/allocation.h"
+#include "control/commanded_reference.h"
 #include "control/control_config.h"
 #include "control/iap_controller.h"
 #include "control/trajectory.h"
@@ -51,9 +55,23 @@ class ControlNode : public bridge::Process {
     params.OptionalChoice("mode", &mode_, {"track", "hover"});
     config_ = ReadControllerConfig(params);
     if (mode_ == "track") {
-      bridge::YamlMap trajectory = params.Map("trajectory");
-      trajectory_ = ReadTrajectory(trajectory, context.scenario.file);
-      trajectory.Finish();
+      if (params.Has("trajectory") == params.Has("reference")) {
+        params.Fail("trajectory", "mode track needs exactly one of trajectory (a known path) or reference "
+                                  "(pose commands from a topic)");
+      }
+      if (params.Has("trajectory")) {
+        bridge::YamlMap trajectory = params.Map("trajectory");
+        trajectory_ = ReadTrajectory(trajectory, context.scenario.file);
+        trajectory.Finish();
+      } else {
+        bridge::YamlMap reference = params.Map("reference");
+        reference.Required("topic", &reference_topic_);
+        reference.OptionalChoice("type", &reference_type_, {"pose_stamped", "setpoint"});
+        double time_constant_s = 0.1;
+        reference.OptionalInRange("velocity_time_constant_s", &time_constant_s, 0.0, 10.0);
+        reference.Finish();
+        commanded_.emplace(time_constant_s);
+      }
       controller_.emplace(vehicle_, config_);
     }
     period_s_ = 1.0 / context.self.rate_hz;
@@ -66,6 +84,24 @@ class ControlNode : public bridge::Process {
                                            state_ = state;
                                            have_state_ = true;
                                          });
+    if (reference_topic_.empty()) return;
+    const auto command = [this](const ros::Time& stamp, const geometry_msgs::Pose& pose, bool five_dof) {
+      if (!commanded_->Add(stamp.toSec(), bridge::FromMsg(pose.position), bridge::FromMsg(pose.orientation),
+                           five_dof)) {
+        ++rejected_references_;
+      }
+    };
+    if (reference_type_ == "pose_stamped") {
+      bus.Subscribe<geometry_msgs::PoseStamped>(
+          reference_topic_, [command](const geometry_msgs::PoseStamped& m, const bridge::MessageInfo&) {
+            command(m.header.stamp, m.pose, false);
+          });
+    } else {
+      bus.Subscribe<iapsim_msgs::Setpoint>(
+          reference_topic_, [command](const iapsim_msgs::Setpoint& m, const bridge::MessageInfo&) {
+            command(m.header.stamp, m.pose_W, m.dof == iapsim_msgs::Setpoint::DOF_5);
+          });
+    }
   }
 
   void Step(const bridge::StepInfo&) override {
@@ -88,6 +124,7 @@ class ControlNode : public bridge::Process {
       (*report)["rejected_updates"] = controller_->rejected_updates();
       (*report)["saturated_updates"] = controller_->saturated_updates();
     }
+    if (commanded_) (*report)["rejected_references"] = rejected_references_;
   }
 
  private:
@@ -95,7 +132,13 @@ class ControlNode : public bridge::Process {
     const int64_t stamp_ns = bridge::ToNanoseconds(state_.header.stamp);
     if (!start_ns_) start_ns_ = stamp_ns;
     const double t_s = static_cast<double>(stamp_ns - *start_ns_) * 1e-9;
-    const PoseReference reference = trajectory_->Sample(t_s);
+    if (!hold_) {  // before the first pose command: stay where the flight starts
+      hold_.emplace();
+      hold_->p_WP_m = bridge::FromMsg(state_.bodies[0].pose_W.position);
+      hold_->q_WP = bridge::FromMsg(state_.bodies[0].pose_W.orientation).normalized();
+    }
+    const PoseReference reference =
+        trajectory_ ? trajectory_->Sample(t_s) : commanded_->empty() ? *hold_ : commanded_->current();
     controller_->Update(reference, PlatformStateOf(state_.bodies[0]), Vector6d::Zero(), period_s_);
 
     const ControlOutput& out = controller_->output();
@@ -152,6 +195,11 @@ class ControlNode : public bridge::Process {
   std::string mode_;
   IapControllerConfig config_;
   std::unique_ptr<Trajectory> trajectory_;
+  std::string reference_topic_;
+  std::string reference_type_ = "pose_stamped";
+  std::optional<CommandedPoseReference> commanded_;
+  std::optional<PoseReference> hold_;
+  uint64_t rejected_references_ = 0;
   std::optional<IapController> controller_;
   double period_s_ = 0.005;
   bridge::Bus* bus_ = nullptr;
