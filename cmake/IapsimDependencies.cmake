@@ -9,6 +9,7 @@ find_package(nlohmann_json REQUIRED)
 find_package(Threads REQUIRED)
 pkg_check_modules(URDFDOM REQUIRED IMPORTED_TARGET urdfdom)
 pkg_check_modules(TINYXML2 REQUIRED IMPORTED_TARGET tinyxml2)
+pkg_check_modules(ASSIMP REQUIRED IMPORTED_TARGET assimp)
 # the double-precision build (its .pc file adds -DBT_USE_DOUBLE_PRECISION); FindBullet finds only float
 pkg_check_modules(BULLET REQUIRED IMPORTED_TARGET bullet-float64)
 

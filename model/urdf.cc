@@ -4,6 +4,7 @@
 #include <urdf_parser/urdf_parser.h>
 
 #include <charconv>
+#include <filesystem>
 #include <fstream>
 #include <queue>
 #include <set>
@@ -44,6 +45,12 @@ void AddGeometry(tinyxml2::XMLElement* parent, const Shape& shape) {
     case Shape::Kind::kSphere:
       geometry->InsertNewChildElement("sphere")->SetAttribute("radius", Num(shape.radius_m).c_str());
       break;
+    case Shape::Kind::kMesh: {
+      auto* mesh = geometry->InsertNewChildElement("mesh");
+      mesh->SetAttribute("filename", shape.mesh_file.c_str());
+      mesh->SetAttribute("scale", Vec(shape.mesh_scale).c_str());
+      break;
+    }
   }
 }
 
@@ -99,6 +106,18 @@ Eigen::Vector3d RpyOf(const urdf::Rotation& rotation) {
   return Eigen::Vector3d(roll, pitch, yaw);
 }
 
+// A mesh's file name as a path: file:// URIs are paths; ROS package:// URIs need a package path iapsim does
+// not have.
+std::string MeshPath(const std::string& filename, const std::string& link, const std::string& source) {
+  const std::string file_scheme = "file://";
+  if (filename.rfind(file_scheme, 0) == 0) return filename.substr(file_scheme.size());
+  if (filename.find("://") != std::string::npos) {
+    Fail(source, "link '" + link + "': mesh '" + filename +
+                     "': only file paths are supported (relative to the URDF file, or absolute)");
+  }
+  return filename;
+}
+
 // the collision cones the pre-parse renamed to cylinders: (link name, index of the <collision> in the link)
 using ConeSet = std::set<std::pair<std::string, size_t>>;
 
@@ -140,9 +159,13 @@ LinkDescription ConvertLink(const urdf::Link& link, const ConeSet& cones, const 
         shape.kind = Shape::Kind::kSphere;
         shape.radius_m = static_cast<const urdf::Sphere&>(*collision->geometry).radius;
         break;
-      default:
-        Fail(source, "link '" + link.name +
-                         "': collision meshes are not supported in URDF (use box, cylinder, sphere, cone)");
+      case urdf::Geometry::MESH: {  // a vehicle's links move: its meshes collide as convex parts
+        const auto& mesh = static_cast<const urdf::Mesh&>(*collision->geometry);
+        shape.kind = Shape::Kind::kMesh;
+        shape.mesh_file = MeshPath(mesh.filename, link.name, source);
+        shape.mesh_scale = ToEigen(mesh.scale);
+        break;
+      }
     }
     out.collision.push_back(shape);
   }
@@ -261,7 +284,17 @@ MultibodyDescription LoadUrdfFile(const std::string& path) {
   if (!in) throw std::invalid_argument(path + ": cannot open the file");
   std::stringstream text;
   text << in.rdbuf();
-  return ParseUrdf(text.str(), path);
+  MultibodyDescription description = ParseUrdf(text.str(), path);
+  // mesh files are relative to the URDF file
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  for (auto& link : description.links) {
+    for (auto& shape : link.collision) {
+      if (shape.kind == Shape::Kind::kMesh && std::filesystem::path(shape.mesh_file).is_relative()) {
+        shape.mesh_file = (folder / shape.mesh_file).string();
+      }
+    }
+  }
+  return description;
 }
 
 }  // namespace iapsim::model

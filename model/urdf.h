@@ -10,6 +10,10 @@
 // URDF has no cone either (docking parts need one, seed §IV-E). iapsim writes <cone radius="R" length="L"/>,
 // named after SDFormat's cone, with Shape's convention (along z, centred on half its length, apex toward +z);
 // the same pre-parse step renames it to <cylinder> for urdfdom and restores the cone in the description.
+//
+// Collision meshes are URDF's own <mesh filename scale/>. A vehicle's links move, so their meshes collide as
+// convex hulls, one per part of the file (a vehicle YAML refuses `convex: false`). A relative filename is
+// relative to the URDF file (LoadUrdfFile); `iapsim urdf` writes absolute paths.
 
 #include <Eigen/Core>
 #include <string>
@@ -46,7 +50,8 @@ struct MultibodyDescription {
 /// Parses URDF text; `source` (a file name) is used in error messages. Throws std::invalid_argument.
 MultibodyDescription ParseUrdf(const std::string& xml, const std::string& source);
 
-/// Reads and parses a URDF file. Throws std::invalid_argument naming the file.
+/// Reads and parses a URDF file; relative mesh file names become relative to its folder. Throws
+/// std::invalid_argument naming the file.
 MultibodyDescription LoadUrdfFile(const std::string& path);
 
 }  // namespace iapsim::model

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "bridge/config.h"
+#include "model/mesh.h"
 
 namespace iapsim::model {
 
@@ -66,7 +67,7 @@ void CheckMass(YamlMap& map, const MassProperties& mass, const std::string& what
   if (mass.inertia_B_kgm2.isZero()) map.Fail("inertia_kgm2", what + " needs an inertia");
 }
 
-Shape ReadShape(YamlMap& map) {
+Shape ReadShape(YamlMap& map, BodyMotion motion) {
   Shape shape;
   int kinds = 0;
   if (map.Has("box")) {
@@ -98,8 +99,36 @@ Shape ReadShape(YamlMap& map) {
     sphere.Finish();
     ++kinds;
   }
+  if (map.Has("mesh")) {
+    YamlMap mesh = map.Map("mesh");
+    shape.kind = Shape::Kind::kMesh;
+    shape.mesh_file = bridge::ReadFilePath(mesh, "file", map.file());
+    if (mesh.Has("scale") && mesh.Raw("scale").IsScalar()) {
+      double uniform = 1.0;
+      mesh.Optional("scale", &uniform);
+      shape.mesh_scale.setConstant(uniform);
+    } else {
+      OptionalVector3(mesh, "scale", &shape.mesh_scale);
+    }
+    if (!(shape.mesh_scale.minCoeff() > 0.0)) mesh.Fail("scale", "must be positive (a number or [x, y, z])");
+    mesh.Optional("convex", &shape.mesh_convex);
+    if (!shape.mesh_convex && motion == BodyMotion::kMoving) {
+      mesh.Fail("convex",
+                "false (collide with the triangles) needs a static body; a moving one collides as "
+                "one convex hull per part of the file: split the mesh into convex parts (OBJ objects)");
+    }
+    try {  // read now, so a bad mesh is reported with this file and line
+      LoadTriangleMesh(shape.mesh_file, shape.mesh_scale);
+    } catch (const std::invalid_argument& e) {
+      mesh.Fail("file", e.what());
+    }
+    mesh.Finish();
+    ++kinds;
+  }
   if (kinds != 1) {
-    map.Fail("box", "a shape is exactly one of box: [x, y, z], cylinder: {...}, sphere: {...}, cone: {...}");
+    map.Fail("box",
+             "a shape is exactly one of box: [x, y, z], cylinder: {...}, sphere: {...}, cone: {...}, "
+             "mesh: {...}");
   }
   OptionalVector3(map, "origin_m", &shape.origin_B_m);
   OptionalVector3(map, "rpy_deg", &shape.rpy_B_rad, kDegToRad);
@@ -173,20 +202,28 @@ void ReadSubAircraft(YamlMap& map, SubAircraft* sub) {
 }  // namespace
 
 void OptionalVector3(YamlMap& map, const std::string& key, Eigen::Vector3d* value, double scale) {
-  if (!map.Has(key)) return;
+  if (!map.Has(key)) {
+    map.Raw(key);  // a known key though absent: Finish() can suggest it for a misspelling
+    const Eigen::Vector3d in_file_unit = *value / scale;
+    map.SetResolved(key, YAML::Node(std::vector<double>{in_file_unit.x(), in_file_unit.y(), in_file_unit.z()}));
+    return;
+  }
   const auto v = ReadNumbers(map, key, {3});
   *value = Eigen::Vector3d(v[0], v[1], v[2]) * scale;
 }
 
-void OptionalShapes(YamlMap& map, const std::string& key, std::vector<Shape>* shapes) {
+void OptionalShapes(YamlMap& map, const std::string& key, std::vector<Shape>* shapes, BodyMotion motion) {
   if (!map.Has(key)) return;
   const YAML::Node node = map.Raw(key);
   if (!node.IsSequence()) map.Fail(key, "expected a list of shapes");
   shapes->clear();
+  YAML::Node resolved;  // as read: mesh files absolute, so a resolved scenario finds them from anywhere
   for (size_t i = 0; i < node.size(); ++i) {
     YamlMap shape(node[i], map.file(), map.PathOf(key) + "[" + std::to_string(i) + "]");
-    shapes->push_back(ReadShape(shape));
+    shapes->push_back(ReadShape(shape, motion));
+    resolved.push_back(shape.Resolved());
   }
+  map.SetResolved(key, resolved);
 }
 
 double Vehicle::TotalMass_kg() const {

@@ -15,12 +15,17 @@ namespace iapsim::model {
 
 /// A collision (and default visual) shape, placed in its body's frame. Cylinders and cones lie along the
 /// shape's own z axis, centred on half their length; a cone's apex points along +z, its base circle at −z.
+/// A mesh keeps the file's own origin and axes (model/mesh.h).
 struct Shape {
-  enum class Kind { kBox, kCylinder, kSphere, kCone };
+  enum class Kind { kBox, kCylinder, kSphere, kCone, kMesh };
   Kind kind = Kind::kBox;
   Eigen::Vector3d box_size_m = Eigen::Vector3d::Zero();  // kBox: full extents along x, y, z
   double radius_m = 0.0;                                 // kCylinder, kSphere; kCone: of the base
   double length_m = 0.0;                                 // kCylinder, kCone: along the shape's z axis
+  std::string mesh_file;                                 // kMesh: a file assimp reads
+  Eigen::Vector3d mesh_scale = Eigen::Vector3d::Ones();  // kMesh: per axis of the file, to metres
+  // kMesh: true collides as one convex hull per part of the file; false with its triangles (static bodies)
+  bool mesh_convex = true;
   Eigen::Vector3d origin_B_m = Eigen::Vector3d::Zero();  // shape centre in the body frame
   Eigen::Vector3d rpy_B_rad = Eigen::Vector3d::Zero();   // shape orientation (roll, pitch, yaw)
 };
@@ -105,11 +110,18 @@ struct Vehicle {
 };
 
 /// YAML readers shared by the configuration files that place shapes and frames (vehicles, worlds).
-/// `value` keeps its default when the key is absent; `scale` converts units (degrees to radians).
+/// `value` keeps its default when the key is absent (and is recorded as resolved); `scale` converts units
+/// (degrees to radians).
 void OptionalVector3(bridge::YamlMap& map, const std::string& key, Eigen::Vector3d* value, double scale = 1.0);
+/// Whether the body that carries shapes moves. Bullet collides a mesh's triangles (not its convex hull) with
+/// other bodies reliably only when the mesh does not move (model/mesh.h, physics/multibody_world.h).
+enum class BodyMotion { kMoving, kStatic };
 /// A list of shapes: each {box: [x, y, z]} | {cylinder: {radius_m, length_m}} | {sphere: {radius_m}} |
-/// {cone: {radius_m, length_m}}, with optional origin_m and rpy_deg.
-void OptionalShapes(bridge::YamlMap& map, const std::string& key, std::vector<Shape>* shapes);
+/// {cone: {radius_m, length_m}} | {mesh: {file, scale: s or [x, y, z], convex: true}}, with optional
+/// origin_m and rpy_deg. A mesh file is relative to the YAML file that names it, else to the working
+/// folder; it is read here, so a bad one fails with this file and line. `convex: false` needs kStatic.
+void OptionalShapes(bridge::YamlMap& map, const std::string& key, std::vector<Shape>* shapes,
+                    BodyMotion motion = BodyMotion::kMoving);
 
 /// URDF's roll-pitch-yaw convention: R = Rz(yaw) Ry(pitch) Rx(roll).
 Eigen::Matrix3d RotationFromRpy(const Eigen::Vector3d& rpy_rad);

@@ -6,6 +6,10 @@
 // (the CoM, principal axes) never leaks out. Every body has an id: multibody links in the order they were
 // added (root first), then objects; the ground is kGround.
 //
+// Meshes (model::Shape::Kind::kMesh) collide as one convex hull per part of the file (exact to the mesh's
+// surface, edges rounded to 1 mm), or, on a static object only, with their triangles (a Bullet BVH triangle
+// mesh); a moving body's non-convex mesh is an error: split it into convex parts.
+//
 // Fidelity settings (see NOTES): no damping, no velocity clamps, one Bullet step per Step() (no substeps,
 // no accumulator), `solver_iterations` sequential-impulse iterations for contacts and latches.
 //
@@ -45,7 +49,7 @@ struct CollisionFilter {
 
 struct WorldObject {
   std::string name;
-  std::vector<model::Shape> shapes;  // in the object frame O
+  std::vector<model::Shape> shapes;  // in the object frame O; a non-convex mesh only when static
   double mass_kg = 0.0;              // 0: static
   Eigen::Vector3d inertia_kgm2 = Eigen::Vector3d::Zero();  // principal, about O (the CoM); 0: from shapes
   Eigen::Vector3d p_WO_m = Eigen::Vector3d::Zero();

@@ -40,10 +40,11 @@ void ReadPose(YamlMap& map, Eigen::Vector3d* p_m, Eigen::Quaterniond* q) {
 WorldObject ReadObject(YamlMap& map) {
   WorldObject object;
   map.Required("name", &object.name);
-  model::OptionalShapes(map, "shapes", &object.shapes);
+  map.OptionalInRange("mass_kg", &object.mass_kg, 0.0, 1e6);
+  model::OptionalShapes(map, "shapes", &object.shapes,
+                        object.mass_kg > 0.0 ? model::BodyMotion::kMoving : model::BodyMotion::kStatic);
   if (object.shapes.empty()) map.Fail("shapes", "an object needs at least one shape");
   ReadPose(map, &object.p_WO_m, &object.q_WO);
-  map.OptionalInRange("mass_kg", &object.mass_kg, 0.0, 1e6);
   model::OptionalVector3(map, "inertia_kgm2", &object.inertia_kgm2);
   if (map.Has("material")) {
     YamlMap material = map.Map("material");

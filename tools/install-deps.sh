@@ -15,7 +15,7 @@ packages=(
   ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-rosgraph-msgs
   python3-genmsg python3-gencpp python3-rosbag python3-yaml python3-numpy python3-matplotlib
   # physics
-  libbullet-dev libbullet-extras-dev liburdfdom-dev libtinyxml2-dev
+  libbullet-dev libbullet-extras-dev liburdfdom-dev libtinyxml2-dev libassimp-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
 )
