@@ -515,6 +515,26 @@ FlatMessage Flatten(const SchemaSet& schema, const uint8_t* data, size_t size) {
   return flat;
 }
 
+std::vector<std::string> SplitCsvLine(const std::string& line, bool* unterminated) {
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted && c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+      fields.back() += '"';
+      ++i;
+    } else if (c == '"') {
+      quoted = !quoted;
+    } else if (c == ',' && !quoted) {
+      fields.emplace_back();
+    } else if (c != '\r') {
+      fields.back() += c;
+    }
+  }
+  if (unterminated) *unterminated = quoted;
+  return fields;
+}
+
 void CsvWriter::Write(int64_t record_time_ns, const FlatMessage& message) {
   if (message.columns.size() != message.values.size()) {
     throw std::invalid_argument("CSV row " + std::to_string(rows_ + 1) + ": " +

@@ -39,6 +39,11 @@ class CsvWriter {
   uint64_t rows_ = 0;
 };
 
+/// Splits one line of a CSV file like CsvWriter's into fields (RFC 4180 quoting: a quoted field may hold
+/// commas, "" is a quote; '\r' is dropped). `unterminated` (if given) tells whether a quote was left open:
+/// a quoted field may not span lines here.
+std::vector<std::string> SplitCsvLine(const std::string& line, bool* unterminated = nullptr);
+
 /// A pose at a time, for TUM trajectory files ("t x y z qx qy qz qw").
 struct StampedPose {
   int64_t time_ns = 0;

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "bridge/message_format.h"
 #include "control/allocation.h"
 #include "model/vehicle.h"
 
@@ -242,16 +243,10 @@ std::vector<Knot> KnotsThrough(const std::vector<double>& times_s, const std::ve
   return knots;
 }
 
-// model::OptionalVector3, the key known to Finish() even when absent (for its spelling suggestions)
-void OptionalVector3(YamlMap& map, const std::string& key, Vector3d* value, double scale = 1.0) {
-  map.Raw(key);
-  model::OptionalVector3(map, key, value, scale);
-}
-
 Vector3d RequiredVector3(YamlMap& map, const std::string& key, const std::string& expected) {
   if (!map.Has(key)) map.Fail(key, "is required: " + expected);
   Vector3d value = Vector3d::Zero();
-  OptionalVector3(map, key, &value);
+  model::OptionalVector3(map, key, &value);
   return value;
 }
 
@@ -302,7 +297,7 @@ std::unique_ptr<Trajectory> ReadWaypoints(YamlMap& params) {
     Vector6d y = Vector6d::Zero();
     y.head<3>() = RequiredVector3(item, "position_m", "[x, y, z] in m (NED)");
     Vector3d rpy_rad = Vector3d::Zero();
-    OptionalVector3(item, "rpy_deg", &rpy_rad, kDegToRad);
+    model::OptionalVector3(item, "rpy_deg", &rpy_rad, kDegToRad);
     y.tail<3>() = rpy_rad;
     return y;
   });
@@ -435,7 +430,7 @@ SpeedRamp CheckedRamp(YamlMap& params, double duration_s, double ramp_s) {
 // the fixed attitude of the circle and the figure-eight
 PathAttitude ReadFixedAttitude(YamlMap& params) {
   PathAttitude attitude;
-  OptionalVector3(params, "rpy_deg", &attitude.rpy_rad, kDegToRad);
+  model::OptionalVector3(params, "rpy_deg", &attitude.rpy_rad, kDegToRad);
   params.Optional("yaw_follows_path", &attitude.yaw_follows_path);
   return attitude;
 }
@@ -453,7 +448,7 @@ std::unique_ptr<Trajectory> ReadSpiral(YamlMap& params) {
   params.Optional("start_angle_deg", &start_angle_deg);
   const double duration_s = RequiredPositive(params, "duration_s", "s");
   PathAttitude attitude;
-  OptionalVector3(params, "attitude_amplitude_deg", &attitude.amplitude_rad, kDegToRad);
+  model::OptionalVector3(params, "attitude_amplitude_deg", &attitude.amplitude_rad, kDegToRad);
   params.Optional("attitude_period_s", &attitude.period_s);
   if (!attitude.amplitude_rad.isZero() && !(attitude.period_s > 0.0)) {
     params.Fail("attitude_period_s", "must be positive (s) when attitude_amplitude_deg is set");
@@ -707,24 +702,11 @@ std::vector<PoseSample> ReadTum(const std::string& path) {
   return reader.Samples();
 }
 
-// One CSV line split into fields (RFC 4180 quoting; a quoted field may not span lines).
+// One CSV line split into fields; a quoted field may not span lines.
 std::vector<std::string> SplitCsv(const std::string& line, size_t number, const SampleReader& reader) {
-  std::vector<std::string> fields(1);
-  bool quoted = false;
-  for (size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted && c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-      fields.back() += '"';
-      ++i;
-    } else if (c == '"') {
-      quoted = !quoted;
-    } else if (c == ',' && !quoted) {
-      fields.emplace_back();
-    } else {
-      fields.back() += c;
-    }
-  }
-  if (quoted) reader.Fail(number, "a quoted field does not end on its line");
+  bool unterminated = false;
+  std::vector<std::string> fields = bridge::SplitCsvLine(line, &unterminated);
+  if (unterminated) reader.Fail(number, "a quoted field does not end on its line");
   return fields;
 }
 

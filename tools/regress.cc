@@ -141,6 +141,7 @@ int Regress(const RegressArgs& args) {
       entry["checks"][metric] = {{"value", value}, {"max", bound.max}, {"ok", ok}};
       if (!ok) ++failures;
     }
+    std::printf("%-22s plots and metrics in %s\n", flight.name.c_str(), result.run_dir.c_str());
   }
   const fs::path report_path = out_dir / "regress.json";
   std::ofstream(report_path) << report.dump(2) << "\n";

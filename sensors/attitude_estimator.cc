@@ -1,0 +1,158 @@
+#include "sensors/attitude_estimator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace iapsim::sensors {
+namespace {
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return S;
+}
+
+// the rotation of rotation vector v
+Eigen::Quaterniond Exp(const Eigen::Vector3d& v) {
+  const double angle = v.norm();
+  if (angle < 1e-12) return Eigen::Quaterniond(1.0, 0.5 * v.x(), 0.5 * v.y(), 0.5 * v.z()).normalized();
+  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, v / angle));
+}
+
+Eigen::Quaterniond FromRollPitchYaw(double roll_rad, double pitch_rad, double yaw_rad) {
+  return Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()) *
+         Eigen::AngleAxisd(pitch_rad, Eigen::Vector3d::UnitY()) *
+         Eigen::AngleAxisd(roll_rad, Eigen::Vector3d::UnitX());
+}
+
+}  // namespace
+
+Eigen::Vector3d RollPitchYaw_rad(const Eigen::Quaterniond& q_WB) {
+  const Eigen::Matrix3d R = q_WB.normalized().toRotationMatrix();
+  return {std::atan2(R(2, 1), R(2, 2)), std::asin(std::clamp(-R(2, 0), -1.0, 1.0)),
+          std::atan2(R(1, 0), R(0, 0))};
+}
+
+double WrapToPi(double angle_rad) {
+  const double wrapped = std::remainder(angle_rad, 2.0 * M_PI);
+  return wrapped <= -M_PI ? wrapped + 2.0 * M_PI : wrapped;
+}
+
+AttitudeEstimator::AttitudeEstimator(const AttitudeEstimatorConfig& config) : config_(config) {
+  config_.q_BI.normalize();
+}
+
+void AttitudeEstimator::InitializeFromAccelerometer(const ImuSample& sample, double yaw_rad) {
+  const Eigen::Vector3d f_B = config_.q_BI * sample.f_I_mps2;
+  // at rest f_B = −g (−sin θ, sin φ cos θ, cos φ cos θ)
+  const double roll_rad = std::atan2(-f_B.y(), -f_B.z());
+  const double pitch_rad = std::atan2(f_B.x(), std::hypot(f_B.y(), f_B.z()));
+  Initialize(FromRollPitchYaw(roll_rad, pitch_rad, yaw_rad), Eigen::Vector3d::Zero());
+  previous_w_B_radps_ = config_.q_BI * sample.w_I_radps;
+}
+
+void AttitudeEstimator::Initialize(const Eigen::Quaterniond& q_WB,
+                                   const Eigen::Vector3d& gyroscope_bias_B_radps) {
+  q_WB_ = q_WB.normalized();
+  gyroscope_bias_B_radps_ = gyroscope_bias_B_radps;
+  accelerometer_bias_B_mps2_.setZero();
+  previous_w_B_radps_.reset();
+  const double tilt2 = config_.initial_tilt_sigma_rad * config_.initial_tilt_sigma_rad;
+  P_.setZero();
+  // the attitude error is in B: near level, its x and y are roll and pitch, its z yaw
+  P_.diagonal() << tilt2, tilt2, config_.initial_yaw_sigma_rad * config_.initial_yaw_sigma_rad,
+      Eigen::Vector3d::Constant(std::pow(config_.initial_gyroscope_bias_sigma_radps, 2)),
+      Eigen::Vector3d::Constant(std::pow(config_.initial_accelerometer_bias_sigma_mps2, 2));
+  initialized_ = true;
+}
+
+void AttitudeEstimator::ThrowUnlessInitialized() const {
+  if (!initialized_) throw std::logic_error("AttitudeEstimator: Initialize before the first update");
+}
+
+bool AttitudeEstimator::Update(const ImuSample& sample, double dt_s) {
+  ThrowUnlessInitialized();
+  if (!(dt_s > 0.0)) throw std::invalid_argument("AttitudeEstimator::Update: dt_s must be positive");
+  const ImuNoise& noise = config_.imu_noise;
+
+  // propagate: q ← q ⊗ Exp((ω − b_g)Δt); the error rotates back by that step and integrates −δb_g.
+  // The rate at the step's end alone would be off by αΔt/2 (1 mrad/s at 0.4 rad/s² and 200 Hz), more
+  // than the gyroscope bias the filter is after.
+  const Eigen::Vector3d measured_w_B_radps = config_.q_BI * sample.w_I_radps;
+  const Eigen::Vector3d w_B_radps =
+      0.5 * (measured_w_B_radps + previous_w_B_radps_.value_or(measured_w_B_radps)) - gyroscope_bias_B_radps_;
+  previous_w_B_radps_ = measured_w_B_radps;
+  const Eigen::Quaterniond step = Exp(w_B_radps * dt_s);
+  q_WB_ = (q_WB_ * step).normalized();
+  Matrix9d F = Matrix9d::Identity();
+  F.block<3, 3>(0, 0) = step.toRotationMatrix().transpose();
+  F.block<3, 3>(0, 3) = -dt_s * Eigen::Matrix3d::Identity();
+  Eigen::Matrix<double, 9, 1> Q;
+  Q << Eigen::Vector3d::Constant(std::pow(noise.gyroscope_noise_density, 2) * dt_s),
+      Eigen::Vector3d::Constant(std::pow(noise.gyroscope_random_walk, 2) * dt_s),
+      Eigen::Vector3d::Constant(std::pow(noise.accelerometer_random_walk, 2) * dt_s);
+  P_ = F * P_ * F.transpose();
+  P_.diagonal() += Q;
+
+  // correct with gravity: f_B = −g R_WBᵀ e3 + b_a; a perturbation δθ in B changes it by −g [R_WBᵀe3]× δθ
+  const Eigen::Vector3d f_B_mps2 = config_.q_BI * sample.f_I_mps2;
+  if (std::fabs(f_B_mps2.norm() - config_.gravity_mps2) > config_.acceleration_gate_mps2) return false;
+  const Eigen::Vector3d down_B = q_WB_.conjugate() * Eigen::Vector3d::UnitZ();
+  Eigen::Matrix<double, 3, 9> H = Eigen::Matrix<double, 3, 9>::Zero();
+  H.block<3, 3>(0, 0) = -config_.gravity_mps2 * Skew(down_B);
+  H.block<3, 3>(0, 6) = Eigen::Matrix3d::Identity();
+  const double reading_variance_m2ps4 =
+      std::pow(noise.accelerometer_noise_density, 2) / dt_s + std::pow(config_.acceleration_sigma_mps2, 2);
+  Correct<3>(H, f_B_mps2 - (-config_.gravity_mps2 * down_B + accelerometer_bias_B_mps2_),
+             reading_variance_m2ps4 * Eigen::Matrix3d::Identity());
+  return true;
+}
+
+void AttitudeEstimator::UpdateHeading(double yaw_rad, double sigma_rad) {
+  ThrowUnlessInitialized();
+  if (!(sigma_rad > 0.0)) {
+    throw std::invalid_argument("AttitudeEstimator::UpdateHeading: sigma_rad must be positive");
+  }
+  // yaw rate from body rates: ψ̇ = (sin φ q + cos φ r)/cos θ
+  const Eigen::Vector3d rpy = RollPitchYaw_rad(q_WB_);
+  Eigen::Matrix<double, 1, 9> H = Eigen::Matrix<double, 1, 9>::Zero();
+  H(0, 1) = std::sin(rpy.x()) / std::cos(rpy.y());
+  H(0, 2) = std::cos(rpy.x()) / std::cos(rpy.y());
+  Correct<1>(H, Eigen::Matrix<double, 1, 1>(WrapToPi(yaw_rad - rpy.z())),
+             Eigen::Matrix<double, 1, 1>(sigma_rad * sigma_rad));
+}
+
+template <int kRows>
+void AttitudeEstimator::Correct(const Eigen::Matrix<double, kRows, 9>& H,
+                                const Eigen::Matrix<double, kRows, 1>& residual,
+                                const Eigen::Matrix<double, kRows, kRows>& R) {
+  const Eigen::Matrix<double, kRows, kRows> S = H * P_ * H.transpose() + R;
+  const Eigen::Matrix<double, 9, kRows> K = P_ * H.transpose() * S.inverse();
+  const Eigen::Matrix<double, 9, 1> dx = K * residual;
+  // Joseph form: stays symmetric and positive definite in long runs
+  const Matrix9d I_KH = Matrix9d::Identity() - K * H;
+  P_ = I_KH * P_ * I_KH.transpose() + K * R * K.transpose();
+  q_WB_ = (q_WB_ * Exp(dx.head<3>())).normalized();
+  gyroscope_bias_B_radps_ += dx.segment<3>(3);
+  accelerometer_bias_B_mps2_ += dx.tail<3>();
+}
+
+void AttitudeErrorStatistics::Add(const Eigen::Quaterniond& q_WB_estimate,
+                                  const Eigen::Quaterniond& q_WB_true) {
+  const Eigen::Vector3d estimate = RollPitchYaw_rad(q_WB_estimate);
+  const Eigen::Vector3d truth = RollPitchYaw_rad(q_WB_true);
+  for (int axis = 0; axis < 3; ++axis) {
+    const double error_rad = WrapToPi(estimate[axis] - truth[axis]);
+    sum_of_squares_rad2_[axis] += error_rad * error_rad;
+    max_abs_rad_[axis] = std::max(max_abs_rad_[axis], std::fabs(error_rad));
+  }
+  ++count_;
+}
+
+Eigen::Vector3d AttitudeErrorStatistics::RootMeanSquare_rad() const {
+  if (count_ == 0) return Eigen::Vector3d::Zero();
+  return (sum_of_squares_rad2_ / static_cast<double>(count_)).cwiseSqrt();
+}
+
+}  // namespace iapsim::sensors

@@ -1,0 +1,14 @@
+#include "sensors/heading_sensor.h"
+
+#include "sensors/attitude_estimator.h"
+
+namespace iapsim::sensors {
+
+HeadingSensor::HeadingSensor(const HeadingSensorConfig& config, uint64_t seed)
+    : config_(config), random_(seed) {}
+
+double HeadingSensor::Measure(const Eigen::Quaterniond& q_WB) {
+  return WrapToPi(RollPitchYaw_rad(q_WB).z() + config_.sigma_rad * normal_(random_));
+}
+
+}  // namespace iapsim::sensors

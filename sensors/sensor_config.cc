@@ -1,0 +1,172 @@
+#include "sensors/sensor_config.h"
+
+#include <cmath>
+#include <set>
+
+#include "model/vehicle.h"
+
+namespace iapsim::sensors {
+namespace {
+
+using bridge::YamlMap;
+
+constexpr double kDegToRad = M_PI / 180.0;
+constexpr double kMaxRate_hz = 1e6;
+
+// table_vi: true (the default when no density is given) or the four Kalibr densities (absent ones are 0)
+ImuNoise ReadImuNoise(YamlMap& map) {
+  const std::vector<std::string> density_keys = {"gyroscope_noise_density", "gyroscope_random_walk",
+                                                 "accelerometer_noise_density", "accelerometer_random_walk"};
+  bool any_density = false;
+  for (const auto& key : density_keys) any_density = any_density || map.Has(key);
+  bool table_vi = !any_density;
+  map.Optional("table_vi", &table_vi);
+  if (table_vi) {
+    if (any_density) map.Fail("table_vi", "true sets the noise densities: remove it or the density keys");
+    return TableViNoise();
+  }
+  ImuNoise noise;
+  map.OptionalInRange(density_keys[0], &noise.gyroscope_noise_density, 0.0, 10.0);
+  map.OptionalInRange(density_keys[1], &noise.gyroscope_random_walk, 0.0, 10.0);
+  map.OptionalInRange(density_keys[2], &noise.accelerometer_noise_density, 0.0, 100.0);
+  map.OptionalInRange(density_keys[3], &noise.accelerometer_random_walk, 0.0, 100.0);
+  return noise;
+}
+
+ImuConfig ReadImu(YamlMap& map, double gravity_mps2) {
+  ImuConfig imu;
+  imu.gravity_mps2 = gravity_mps2;
+  imu.noise = ReadImuNoise(map);
+  map.OptionalInRange("rate_hz", &imu.rate_hz, 1e-3, kMaxRate_hz);
+  YamlMap mounting = map.Map("mounting");
+  model::OptionalVector3(mounting, "position_m", &imu.p_BI_m);
+  Eigen::Vector3d rpy_rad = Eigen::Vector3d::Zero();
+  model::OptionalVector3(mounting, "rpy_deg", &rpy_rad, kDegToRad);
+  imu.q_BI = Eigen::Quaterniond(model::RotationFromRpy(rpy_rad));
+  mounting.Finish();
+  model::OptionalVector3(map, "initial_gyroscope_bias_radps", &imu.initial_gyroscope_bias_radps);
+  map.OptionalInRange("initial_gyroscope_bias_sigma_radps", &imu.initial_gyroscope_bias_sigma_radps, 0.0,
+                      10.0);
+  model::OptionalVector3(map, "initial_accelerometer_bias_mps2", &imu.initial_accelerometer_bias_mps2);
+  map.OptionalInRange("initial_accelerometer_bias_sigma_mps2", &imu.initial_accelerometer_bias_sigma_mps2,
+                      0.0, 100.0);
+  map.Optional("seed_offset", &imu.seed_offset);
+  map.Finish();
+  return imu;
+}
+
+std::vector<UwbAnchor> ReadAnchorList(YamlMap& map, const std::string& key) {
+  const YAML::Node list = map.Raw(key);
+  if (!list.IsSequence()) map.Fail(key, "expected a list of {name, position_m}");
+  std::vector<UwbAnchor> anchors;
+  std::set<std::string> names;
+  for (size_t i = 0; i < list.size(); ++i) {
+    YamlMap entry(list[i], map.file(), map.PathOf(key) + "[" + std::to_string(i) + "]");
+    UwbAnchor anchor;
+    entry.Required("name", &anchor.name);
+    if (!names.insert(anchor.name).second) entry.Fail("name", "'" + anchor.name + "' is used twice");
+    if (!entry.Has("position_m")) entry.Fail("position_m", "is required");
+    model::OptionalVector3(entry, "position_m", &anchor.p_WA_m);
+    entry.Finish();
+    anchors.push_back(anchor);
+  }
+  return anchors;
+}
+
+UwbConfig ReadUwb(YamlMap& map) {
+  UwbConfig uwb;
+  if (map.Has("anchors") && map.Has("anchors_file")) {
+    map.Fail("anchors_file", "give either anchors or anchors_file, not both");
+  }
+  if (map.Has("anchors")) uwb.anchors = ReadAnchorList(map, "anchors");
+  if (map.Has("anchors_file"))
+    uwb.anchors = LoadUwbAnchors(bridge::ReadFilePath(map, "anchors_file", map.file()));
+  UwbNoise& noise = uwb.noise;
+  map.OptionalInRange("sigma_m", &noise.sigma_m, 0.0, 100.0);
+  map.OptionalInRange("outlier_probability", &noise.outlier_probability, 0.0, 1.0);
+  map.OptionalInRange("outlier_magnitude_m", &noise.outlier_magnitude_m, 0.0, 1e4);
+  map.OptionalInRange("nlos_probability", &noise.nlos_probability, 0.0, 1.0);
+  map.OptionalInRange("nlos_bias_m", &noise.nlos_bias_m, 0.0, 1e4);
+  map.OptionalInRange("dropout_probability", &noise.dropout_probability, 0.0, 1.0);
+  map.OptionalInRange("rate_hz", &uwb.rate_hz, 1e-3, kMaxRate_hz);
+  map.Optional("tag_to_tag", &uwb.tag_to_tag);
+  map.Finish();
+  return uwb;
+}
+
+WrenchFilterConfig ReadWrenchFilter(YamlMap& map) {
+  WrenchFilterConfig filter;
+  map.OptionalInRange("cutoff_rad_s", &filter.cutoff_rad_s, 1e-6, 1e6);
+  map.OptionalInRange("damping", &filter.damping, 1e-6, 100.0);
+  map.Finish();
+  return filter;
+}
+
+// an angle kept in radians in the struct and read in degrees
+void OptionalDegrees(YamlMap& map, const std::string& key, double* value_rad, double max_deg) {
+  double value_deg = *value_rad / kDegToRad;
+  map.OptionalInRange(key, &value_deg, 0.0, max_deg);
+  *value_rad = value_deg * kDegToRad;
+}
+
+AttitudeEstimatorConfig ReadAttitudeEstimator(YamlMap& map, const ImuConfig& imu) {
+  AttitudeEstimatorConfig estimator;
+  estimator.imu_noise = imu.noise;
+  estimator.q_BI = imu.q_BI;
+  estimator.gravity_mps2 = imu.gravity_mps2;
+  if (map.Has("imu_noise")) {
+    YamlMap noise = map.Map("imu_noise");
+    estimator.imu_noise = ReadImuNoise(noise);
+    noise.Finish();
+  }
+  OptionalDegrees(map, "initial_tilt_sigma_deg", &estimator.initial_tilt_sigma_rad, 90.0);
+  OptionalDegrees(map, "initial_yaw_sigma_deg", &estimator.initial_yaw_sigma_rad, 180.0);
+  map.OptionalInRange("initial_gyroscope_bias_sigma_radps", &estimator.initial_gyroscope_bias_sigma_radps,
+                      0.0, 10.0);
+  map.OptionalInRange("initial_accelerometer_bias_sigma_mps2",
+                      &estimator.initial_accelerometer_bias_sigma_mps2, 0.0, 100.0);
+  map.OptionalInRange("acceleration_sigma_mps2", &estimator.acceleration_sigma_mps2, 0.0, 100.0);
+  map.OptionalInRange("acceleration_gate_mps2", &estimator.acceleration_gate_mps2, 0.0, 100.0);
+  map.Finish();
+  return estimator;
+}
+
+HeadingSensorConfig ReadHeading(YamlMap& map) {
+  HeadingSensorConfig heading;
+  OptionalDegrees(map, "sigma_deg", &heading.sigma_rad, 180.0);
+  if (!(heading.sigma_rad > 0.0)) map.Fail("sigma_deg", "must be positive");
+  map.OptionalInRange("rate_hz", &heading.rate_hz, 1e-3, kMaxRate_hz);
+  map.Finish();
+  return heading;
+}
+
+}  // namespace
+
+SensorsConfig ReadSensorsConfig(YamlMap& params) {
+  SensorsConfig config;
+  double gravity_mps2 = config.imu.gravity_mps2;
+  params.OptionalInRange("gravity_mps2", &gravity_mps2, 0.0, 100.0);
+  YamlMap imu = params.Map("imu");
+  config.imu = ReadImu(imu, gravity_mps2);
+  YamlMap uwb = params.Map("uwb");
+  config.uwb = ReadUwb(uwb);
+  YamlMap filter = params.Map("wrench_filter");
+  config.wrench_filter = ReadWrenchFilter(filter);
+  YamlMap estimator = params.Map("attitude_estimator");
+  config.attitude_estimator = ReadAttitudeEstimator(estimator, config.imu);
+  if (params.Has("heading")) {
+    YamlMap heading = params.Map("heading");
+    config.heading = ReadHeading(heading);
+  }
+  return config;
+}
+
+std::vector<UwbAnchor> LoadUwbAnchors(const std::string& path) {
+  YamlMap file(bridge::LoadYamlFile(path), path);
+  if (!file.Has("anchors")) file.Fail("anchors", "is required (a list of {name, position_m})");
+  std::vector<UwbAnchor> anchors = ReadAnchorList(file, "anchors");
+  file.Finish();
+  return anchors;
+}
+
+}  // namespace iapsim::sensors

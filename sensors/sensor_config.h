@@ -1,0 +1,34 @@
+#pragma once
+// The sensors' settings as a scenario gives them (the sensors process's params), so in-process users (tests,
+// RL) read the same keys as the process. Keys and units: sensors/README.md.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bridge/config.h"
+#include "sensors/attitude_estimator.h"
+#include "sensors/heading_sensor.h"
+#include "sensors/imu.h"
+#include "sensors/uwb.h"
+#include "sensors/wrench_filter.h"
+
+namespace iapsim::sensors {
+
+struct SensorsConfig {
+  ImuConfig imu;
+  UwbConfig uwb;
+  WrenchFilterConfig wrench_filter;
+  AttitudeEstimatorConfig attitude_estimator;  ///< assumes the IMU's noise, mounting and gravity by default
+  std::optional<HeadingSensorConfig> heading;  ///< absent: no heading measurement, yaw is not aided
+};
+
+/// Reads gravity_mps2 and the optional sections imu, uwb, wrench_filter, attitude_estimator and heading of
+/// `params`; the caller reads its other keys and calls params.Finish(). A uwb anchors_file is relative to
+/// the file of `params`. Throws bridge::ConfigError naming the file, line and key.
+SensorsConfig ReadSensorsConfig(bridge::YamlMap& params);
+
+/// An anchors file: `anchors: [{name, position_m: [x, y, z]}, ...]` in W (configs/sensors/*.yaml).
+std::vector<UwbAnchor> LoadUwbAnchors(const std::string& path);
+
+}  // namespace iapsim::sensors

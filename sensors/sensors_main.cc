@@ -1,0 +1,225 @@
+// iapsim_sensors: the sensors of seed §V-D on the bus, a lockstep participant. From each vehicle state it
+// samples, per sub-aircraft, an IMU, its attitude EKF (a flight controller's attitude estimate) and a UWB
+// tag ranging to the scenario's anchors and to the other tags; and it low-passes the platform's true contact
+// wrench (§VI-E). Every output is stamped with the physics time of the state it derives from.
+//
+//   subscribes  /<vehicle>/state                 iapsim_msgs/IapState
+//   publishes   /<vehicle>/<sub>/imu             sensor_msgs/Imu (no orientation: covariance[0] = −1)
+//               /<vehicle>/<sub>/attitude        sensor_msgs/Imu (EKF orientation R_WS, bias-corrected rate)
+//               /<vehicle>/<sub>/uwb             iapsim_msgs/UwbRanges (received ranges only)
+//               /<vehicle>/wrench/filtered       geometry_msgs/WrenchStamped (P, about its CoM)
+//
+// Each sensor runs at its own rate_hz, which must divide the process's rate_hz; the process's rate is the
+// step of the wrench filter.
+
+#include <geometry_msgs/WrenchStamped.h>
+#include <iapsim_msgs/IapState.h>
+#include <iapsim_msgs/UwbRanges.h>
+#include <sensor_msgs/Imu.h>
+
+#include <cmath>
+#include <optional>
+
+#include "bridge/eigen_msgs.h"
+#include "bridge/process.h"
+#include "model/vehicle.h"
+#include "sensors/sensor_config.h"
+
+namespace iapsim::sensors {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+// Decorrelated seeds for the instances of one process (SplitMix64's increment keeps them apart).
+uint64_t SeedFor(uint64_t process_seed, uint64_t instance, uint64_t kind) {
+  return process_seed + 0x9E3779B97F4A7C15ULL * (instance * 8 + kind + 1);
+}
+
+BodyKinematics KinematicsOf(const iapsim_msgs::BodyState& body) {
+  BodyKinematics truth;
+  truth.q_WB = bridge::FromMsg(body.pose_W.orientation).normalized();
+  truth.w_WB_B_radps = bridge::FromMsg(body.twist_B.angular);
+  truth.alpha_WB_B_radps2 = truth.q_WB.conjugate() * bridge::FromMsg(body.accel_W.angular);
+  truth.a_WB_W_mps2 = bridge::FromMsg(body.accel_W.linear);
+  return truth;
+}
+
+struct SubAircraftSensors {
+  std::string name;
+  ImuModel imu;
+  AttitudeEstimator estimator;
+  std::optional<HeadingSensor> heading;
+  UwbModel uwb;
+  AttitudeErrorStatistics attitude_errors;
+  uint64_t imu_samples = 0;
+  uint64_t uwb_ranges = 0;
+  uint64_t uwb_dropped = 0;
+};
+
+class SensorsNode : public bridge::Process {
+ public:
+  SensorsNode(const bridge::ProcessContext& context, bridge::YamlMap& params)
+      : process_step_s_(context.self.rate_hz > 0 ? 1.0 / context.self.rate_hz : context.scenario.clock.step_s) {
+    bridge::YamlMap vehicle = params.Map("vehicle");
+    vehicle.Required("name", &vehicle_name_);
+    const model::Vehicle model = model::LoadVehicle(bridge::ReadFilePath(vehicle, "file", context.scenario.file));
+    vehicle.Finish();
+    config_ = ReadSensorsConfig(params);
+    imu_every_ = Divider(params, "imu", config_.imu.rate_hz);
+    uwb_every_ = Divider(params, "uwb", config_.uwb.rate_hz);
+    if (config_.heading) heading_every_ = Divider(params, "heading", config_.heading->rate_hz);
+    for (size_t i = 0; i < model.sub_aircraft.size(); ++i) {
+      subs_.push_back(SubAircraftSensors{
+          model.sub_aircraft[i].name, ImuModel(config_.imu, SeedFor(context.seed, i, 0)),
+          AttitudeEstimator(config_.attitude_estimator),
+          config_.heading ? std::optional<HeadingSensor>(HeadingSensor(*config_.heading, SeedFor(context.seed, i, 1)))
+                          : std::nullopt,
+          UwbModel(config_.uwb.noise, SeedFor(context.seed, i, 2)), AttitudeErrorStatistics()});
+    }
+    filter_.emplace(config_.wrench_filter, process_step_s_);
+  }
+
+  void Setup(bridge::Bus& bus) override {
+    bus_ = &bus;
+    bus.Subscribe<iapsim_msgs::IapState>("/" + vehicle_name_ + "/state",
+                                         [this](const iapsim_msgs::IapState& state, const bridge::MessageInfo&) {
+                                           state_ = state;
+                                           have_state_ = true;
+                                         });
+  }
+
+  void Step(const bridge::StepInfo&) override {
+    if (!have_state_ || state_.bodies.size() != subs_.size() + 1) return;  // realtime: nothing yet
+    const uint64_t k = steps_++;
+    for (size_t i = 0; i < subs_.size(); ++i) {
+      const iapsim_msgs::BodyState& body = state_.bodies[i + 1];
+      if (k % imu_every_ == 0) SampleImu(subs_[i], body, k);
+      if (k % uwb_every_ == 0) SampleUwb(i);
+    }
+    FilterWrench();
+  }
+
+  void Finish(nlohmann::json* report) override {
+    for (const auto& sub : subs_) {
+      nlohmann::json& out = (*report)["sub_aircraft"][sub.name];
+      out["imu_samples"] = sub.imu_samples;
+      out["uwb_ranges"] = sub.uwb_ranges;
+      out["uwb_dropped"] = sub.uwb_dropped;
+      const Eigen::Vector3d rms_deg = sub.attitude_errors.RootMeanSquare_rad() * kRadToDeg;
+      const Eigen::Vector3d max_deg = sub.attitude_errors.MaxAbs_rad() * kRadToDeg;
+      out["attitude_error_rms_deg"] = {{"roll", rms_deg.x()}, {"pitch", rms_deg.y()}, {"yaw", rms_deg.z()}};
+      out["attitude_error_max_deg"] = {{"roll", max_deg.x()}, {"pitch", max_deg.y()}, {"yaw", max_deg.z()}};
+    }
+  }
+
+ private:
+  // How many process steps apart a sensor of `rate_hz` samples; it must be a whole number.
+  uint64_t Divider(bridge::YamlMap& params, const std::string& section, double rate_hz) const {
+    const double every = 1.0 / (rate_hz * process_step_s_);
+    if (every < 1.0 - 1e-9 || std::fabs(every - std::round(every)) > 1e-6) {
+      params.Fail(section, "rate_hz " + std::to_string(rate_hz) + " must divide the process's rate_hz " +
+                               std::to_string(1.0 / process_step_s_));
+    }
+    return static_cast<uint64_t>(std::llround(every));
+  }
+
+  std::string Topic(const std::string& sub, const std::string& what) const {
+    return "/" + vehicle_name_ + "/" + sub + "/" + what;
+  }
+
+  void SampleImu(SubAircraftSensors& sub, const iapsim_msgs::BodyState& body, uint64_t k) {
+    const double dt_s = static_cast<double>(imu_every_) * process_step_s_;
+    const BodyKinematics truth = KinematicsOf(body);
+    const ImuSample sample = sub.imu.Sample(truth, dt_s);
+    ++sub.imu_samples;
+    sensor_msgs::Imu imu;
+    imu.header.stamp = state_.header.stamp;
+    imu.header.frame_id = vehicle_name_ + "/" + sub.name + "/imu";
+    imu.orientation_covariance[0] = -1.0;  // ROS: no orientation in this message
+    imu.angular_velocity = bridge::ToVector3Msg(sample.w_I_radps);
+    imu.linear_acceleration = bridge::ToVector3Msg(sample.f_I_mps2);
+    bus_->Publish(Topic(sub.name, "imu"), imu);
+
+    // the flight controller's estimate: started level-aware from gravity with the true heading (no compass)
+    if (!sub.estimator.initialized()) {
+      sub.estimator.InitializeFromAccelerometer(sample, RollPitchYaw_rad(truth.q_WB).z());
+    } else {
+      sub.estimator.Update(sample, dt_s);
+    }
+    if (sub.heading && k % heading_every_ == 0) {
+      sub.estimator.UpdateHeading(sub.heading->Measure(truth.q_WB), sub.heading->config().sigma_rad);
+    }
+    sub.attitude_errors.Add(sub.estimator.q_WB(), truth.q_WB);
+    sensor_msgs::Imu attitude = imu;
+    attitude.header.frame_id = vehicle_name_ + "/" + sub.name;
+    attitude.orientation = bridge::ToQuaternionMsg(sub.estimator.q_WB());
+    const Eigen::Matrix3d attitude_covariance = sub.estimator.covariance().topLeftCorner<3, 3>();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) attitude.orientation_covariance[3 * r + c] = attitude_covariance(r, c);
+    }
+    attitude.angular_velocity =
+        bridge::ToVector3Msg(config_.attitude_estimator.q_BI * sample.w_I_radps - sub.estimator.gyroscope_bias_B_radps());
+    bus_->Publish(Topic(sub.name, "attitude"), attitude);
+  }
+
+  void SampleUwb(size_t i) {
+    SubAircraftSensors& sub = subs_[i];
+    const Eigen::Vector3d p_WT_m = bridge::FromMsg(state_.bodies[i + 1].pose_W.position);
+    iapsim_msgs::UwbRanges ranges;
+    ranges.header.stamp = state_.header.stamp;
+    ranges.header.frame_id = "W";
+    ranges.tag = sub.name;
+    const auto add = [&](const std::string& peer, const Eigen::Vector3d& p_WP_m) {
+      const UwbRange range = sub.uwb.Measure(p_WT_m, p_WP_m);
+      if (!range.received) {
+        ++sub.uwb_dropped;
+        return;
+      }
+      ranges.peers.push_back(peer);
+      ranges.ranges_m.push_back(range.range_m);
+      ++sub.uwb_ranges;
+    };
+    for (const UwbAnchor& anchor : config_.uwb.anchors) add(anchor.name, anchor.p_WA_m);
+    if (config_.uwb.tag_to_tag) {
+      for (size_t j = 0; j < subs_.size(); ++j) {
+        if (j != i) add(subs_[j].name, bridge::FromMsg(state_.bodies[j + 1].pose_W.position));
+      }
+    }
+    bus_->Publish(Topic(sub.name, "uwb"), ranges);
+  }
+
+  void FilterWrench() {
+    const auto& w = state_.external_wrench_P;
+    Vector6d wrench_P;
+    wrench_P << bridge::FromMsg(w.force), bridge::FromMsg(w.torque);
+    const Vector6d filtered_P = filter_->Update(wrench_P);
+    geometry_msgs::WrenchStamped out;
+    out.header.stamp = state_.header.stamp;
+    out.header.frame_id = vehicle_name_ + "/P";
+    out.wrench.force = bridge::ToVector3Msg(filtered_P.head<3>());
+    out.wrench.torque = bridge::ToVector3Msg(filtered_P.tail<3>());
+    bus_->Publish("/" + vehicle_name_ + "/wrench/filtered", out);
+  }
+
+  double process_step_s_;
+  std::string vehicle_name_;
+  SensorsConfig config_;
+  uint64_t imu_every_ = 1, uwb_every_ = 1, heading_every_ = 1;
+  std::vector<SubAircraftSensors> subs_;
+  std::optional<WrenchFilter> filter_;
+  bridge::Bus* bus_ = nullptr;
+  iapsim_msgs::IapState state_;
+  bool have_state_ = false;
+  uint64_t steps_ = 0;
+};
+
+}  // namespace
+}  // namespace iapsim::sensors
+
+int main(int argc, char** argv) {
+  return iapsim::bridge::ProcessMain(
+      argc, argv, "iapsim sensors: IMU, attitude estimate, UWB and filtered wrench from the vehicle state",
+      [](const iapsim::bridge::ProcessContext& context, iapsim::bridge::YamlMap& params) {
+        return std::make_unique<iapsim::sensors::SensorsNode>(context, params);
+      });
+}
