@@ -7,22 +7,40 @@
 namespace iapsim::control {
 namespace {
 
-// Six non-negative numbers under `key` (the diagonal of a gain matrix), kept as they are when absent.
-void OptionalDiagonal(bridge::YamlMap& map, const std::string& key, Vector6d* value) {
+// N finite numbers under `key`, kept as they are when absent.
+template <int N>
+void OptionalNumbers(bridge::YamlMap& map, const std::string& key, Eigen::Matrix<double, N, 1>* value,
+                     const std::string& expected, bool non_negative) {
   if (!map.Has(key)) {
-    map.SetResolved(key, YAML::Node(std::vector<double>(value->data(), value->data() + 6)));
+    map.SetResolved(key, YAML::Node(std::vector<double>(value->data(), value->data() + N)));
     return;
   }
   const YAML::Node node = map.Raw(key);
   std::vector<double> numbers;
-  if (!node.IsSequence() || node.size() != 6 || !YAML::convert<std::vector<double>>::decode(node, numbers)) {
-    map.Fail(key, "expected 6 numbers [x, y, z, roll, pitch, yaw]");
+  if (!node.IsSequence() || node.size() != N || !YAML::convert<std::vector<double>>::decode(node, numbers)) {
+    map.Fail(key, "expected " + expected);
   }
   for (double v : numbers) {
-    if (!std::isfinite(v) || v < 0.0) map.Fail(key, "gains must be finite and non-negative");
+    if (!std::isfinite(v)) map.Fail(key, "must be finite");
+    if (non_negative && v < 0.0) map.Fail(key, "must be non-negative");
   }
-  *value = Eigen::Map<const Vector6d>(numbers.data());
+  *value = Eigen::Map<const Eigen::Matrix<double, N, 1>>(numbers.data());
   map.SetResolved(key, node);
+}
+
+// Six non-negative numbers under `key` (the diagonal of a gain matrix), kept as they are when absent.
+void OptionalDiagonal(bridge::YamlMap& map, const std::string& key, Vector6d* value) {
+  OptionalNumbers<6>(map, key, value, "6 non-negative numbers [x, y, z, roll, pitch, yaw]", true);
+}
+
+// gains {kp, ki, kd, integral_limit} of the tracker
+void ReadTrackerGains(bridge::YamlMap& params, TrackerGains* gains) {
+  bridge::YamlMap map = params.Map("gains");
+  OptionalDiagonal(map, "kp", &gains->kp);
+  OptionalDiagonal(map, "ki", &gains->ki);
+  OptionalDiagonal(map, "kd", &gains->kd);
+  OptionalDiagonal(map, "integral_limit", &gains->integral_limit);
+  map.Finish();
 }
 
 }  // namespace
@@ -31,12 +49,7 @@ IapControllerConfig ReadControllerConfig(bridge::YamlMap& params) {
   IapControllerConfig config;
   params.OptionalInRange("gravity_mps2", &config.gravity_mps2, 0.0, 100.0);
 
-  bridge::YamlMap gains = params.Map("gains");
-  OptionalDiagonal(gains, "kp", &config.gains.kp);
-  OptionalDiagonal(gains, "ki", &config.gains.ki);
-  OptionalDiagonal(gains, "kd", &config.gains.kd);
-  OptionalDiagonal(gains, "integral_limit", &config.gains.integral_limit);
-  gains.Finish();
+  ReadTrackerGains(params, &config.gains);
 
   bridge::YamlMap limits = params.Map("limits");
   limits.OptionalInRange("max_thrust_fraction", &config.max_thrust_fraction, 0.1, 1.0);
@@ -48,6 +61,48 @@ IapControllerConfig ReadControllerConfig(bridge::YamlMap& params) {
   std::string yaw = "reference";
   params.OptionalChoice("sub_aircraft_yaw", &yaw, {"reference", "platform"});
   config.sub_aircraft_yaw = yaw == "reference" ? SubAircraftYaw::kReference : SubAircraftYaw::kPlatform;
+  return config;
+}
+
+AdmittanceConfig ReadAdmittanceConfig(bridge::YamlMap& params) {
+  AdmittanceConfig config;
+  bridge::YamlMap map = params.Map("admittance");
+  OptionalDiagonal(map, "mass", &config.mass);
+  if (!(config.mass.array() > 0.0).all()) map.Fail("mass", "must be positive");
+  OptionalDiagonal(map, "damping", &config.damping);
+  OptionalDiagonal(map, "stiffness", &config.stiffness);
+  map.OptionalInRange("max_offset_m", &config.max_offset_m, 0.0, 10.0);
+  double max_offset_deg = config.max_offset_rad * 180.0 / M_PI;
+  map.OptionalInRange("max_offset_deg", &max_offset_deg, 0.0, 90.0);
+  config.max_offset_rad = max_offset_deg * M_PI / 180.0;
+  map.Finish();
+  return config;
+}
+
+DirectWrenchConfig ReadDirectWrenchConfig(bridge::YamlMap& params) {
+  DirectWrenchConfig config;
+  bridge::YamlMap map = params.Map("wrench_control");
+  ReadTrackerGains(map, &config.gains);
+
+  bridge::YamlMap wrench_gains = map.Map("wrench_gains");
+  OptionalDiagonal(wrench_gains, "kp", &config.wrench_gains.kp);
+  OptionalDiagonal(wrench_gains, "ki", &config.wrench_gains.ki);
+  OptionalDiagonal(wrench_gains, "kd", &config.wrench_gains.kd);
+  OptionalDiagonal(wrench_gains, "integral_limit", &config.wrench_gains.integral_limit);
+  wrench_gains.OptionalInRange("derivative_time_constant_s", &config.wrench_gains.derivative_time_constant_s, 1e-4,
+                               10.0);
+  wrench_gains.Finish();
+
+  Eigen::Vector3d force_N = config.command_wrench_P.head<3>(), torque_Nm = config.command_wrench_P.tail<3>();
+  OptionalNumbers<3>(map, "command_force_N", &force_N, "3 numbers [x, y, z] in the platform frame", false);
+  OptionalNumbers<3>(map, "command_torque_Nm", &torque_Nm, "3 numbers [x, y, z] in the platform frame", false);
+  config.command_wrench_P << force_N, torque_Nm;
+
+  bridge::YamlMap trigger = map.Map("trigger");
+  trigger.OptionalInRange("force_threshold_N", &config.trigger.force_threshold_N, 0.0, 1000.0);
+  trigger.OptionalInRange("hold_s", &config.trigger.hold_s, 0.0, 60.0);
+  trigger.Finish();
+  map.Finish();
   return config;
 }
 

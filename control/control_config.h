@@ -3,7 +3,9 @@
 // (tests, RL) read the same keys as the process.
 
 #include "bridge/config.h"
+#include "control/admittance.h"
 #include "control/iap_controller.h"
+#include "control/wrench_control.h"
 
 namespace iapsim::control {
 
@@ -11,5 +13,15 @@ namespace iapsim::control {
 /// defaults: Table II), limits {max_thrust_fraction, max_tilt_deg} and sub_aircraft_yaw (reference |
 /// platform). Throws bridge::ConfigError naming the file, key and line.
 IapControllerConfig ReadControllerConfig(bridge::YamlMap& params);
+
+/// Reads the section `admittance: {mass, damping, stiffness (6 numbers each: x, y, z, roll, pitch, yaw;
+/// defaults: Table IV), max_offset_m, max_offset_deg}` of `params` (empty or absent: the defaults).
+AdmittanceConfig ReadAdmittanceConfig(bridge::YamlMap& params);
+
+/// Reads the section `wrench_control: {gains: {kp, ki, kd, integral_limit} (defaults: Table V's motion
+/// gains), wrench_gains: {kp, ki, kd, integral_limit, derivative_time_constant_s} (Table V), command_force_N,
+/// command_torque_Nm (3 numbers each, the wrench the contact should apply to the platform, in P), trigger:
+/// {force_threshold_N, hold_s}}` of `params`. Throws bridge::ConfigError naming the file, key and line.
+DirectWrenchConfig ReadDirectWrenchConfig(bridge::YamlMap& params);
 
 }  // namespace iapsim::control

@@ -4,7 +4,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
 
+#include "control/admittance.h"
 #include "control/iap_controller.h"
 #include "model/urdf.h"
 #include "physics/simulation.h"
@@ -35,10 +37,18 @@ class ClosedLoop {
     sim_ = std::make_unique<physics::Simulation>(world);
   }
 
+  /// The reference at each control step, from the state there (an outer loop such as the admittance).
+  using ReferenceSource = std::function<PoseReference(const PlatformState&)>;
+
   /// Flies `duration_s` towards `reference`, with `force_W_N` pushing the platform; `known_force` passes
   /// that force to the tracker as its F_e.
   void Fly(const PoseReference& reference, double duration_s, const Eigen::Vector3d& force_W_N = Eigen::Vector3d::Zero(),
            bool known_force = false) {
+    Fly([&reference](const PlatformState&) { return reference; }, duration_s, force_W_N, known_force);
+  }
+
+  void Fly(const ReferenceSource& reference, double duration_s, const Eigen::Vector3d& force_W_N,
+           bool known_force) {
     const int platform = sim_->output(0).platform_body;
     const int steps = static_cast<int>(std::lround(duration_s / kPhysicsStep_s));
     for (int k = 0; k < steps; ++k) {
@@ -46,7 +56,7 @@ class ClosedLoop {
         const PlatformState state = State();
         Vector6d F_e = Vector6d::Zero();
         if (known_force) F_e.head<3>() = state.q_WP.conjugate() * force_W_N;
-        ASSERT_TRUE(controller_.Update(reference, state, F_e, kStepsPerControl * kPhysicsStep_s));
+        ASSERT_TRUE(controller_.Update(reference(state), state, F_e, kStepsPerControl * kPhysicsStep_s));
         for (size_t i = 0; i < vehicle_.sub_aircraft.size(); ++i) {
           physics::SubAircraftSetpoint setpoint;
           setpoint.thrust_N = controller_.output().sub_aircraft[i].thrust_N;
@@ -154,6 +164,27 @@ TEST(ClosedLoop, UnderActuatedIapsTrackPositionPitchAndYaw) {
     EXPECT_LT(axis_error_deg, 0.25) << name;
     EXPECT_LT(loop.max_roll_rad(), 30.0 * M_PI / 180.0) << name;  // the free roll hangs, it does not tumble
   }
+}
+
+TEST(ClosedLoop, AdmittanceYieldsByForceOverStiffness) {
+  // the three-star with its pole (seed §VI-E); the admittance (19) yields to a known push, which (10) also
+  // cancels as its F_e, so the IAP follows the revised reference
+  const Eigen::Vector3d start(0, 0, -2);
+  ClosedLoop loop("three_star_pole", start);
+  Admittance admittance(AdmittanceConfig(), kStepsPerControl * kPhysicsStep_s);
+  const PoseReference nominal = Pose(start, 0, 0, 0);
+  const Eigen::Vector3d push_W_N(3.0, -2.0, 0.0);
+  const Vector6d push_W = (Vector6d() << push_W_N, Eigen::Vector3d::Zero()).finished();
+  PoseReference revised;
+  loop.Fly([&](const PlatformState&) { return revised = admittance.Update(nominal, push_W); }, 20.0, push_W_N, true);
+  const Eigen::Vector3d expected_m = start + push_W_N / 100.0;  // K_e = 100 N/m (Table IV)
+  const Eigen::Vector3d reached_m = loop.State().p_WP_m;
+  std::printf("admittance, 3.6 N push: reference moved [%.4f %.4f %.4f] m, the IAP [%.4f %.4f %.4f] m (F/K [%.3f %.3f 0])\n",
+              revised.p_WP_m.x() - start.x(), revised.p_WP_m.y() - start.y(), revised.p_WP_m.z() - start.z(),
+              reached_m.x() - start.x(), reached_m.y() - start.y(), reached_m.z() - start.z(), push_W_N.x() / 100,
+              push_W_N.y() / 100);
+  EXPECT_LT((revised.p_WP_m - expected_m).norm(), 1e-6);
+  EXPECT_LT((reached_m - expected_m).norm(), 0.005);
 }
 
 }  // namespace

@@ -1,0 +1,78 @@
+#include "control/wrench_control.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace iapsim::control {
+
+WrenchPid::WrenchPid(const WrenchPidGains& gains, double dt_s) : gains_(gains), dt_s_(dt_s) {
+  if (!(dt_s > 0.0) || !(gains.derivative_time_constant_s > 0.0)) {
+    throw std::invalid_argument("WrenchPid: dt_s and derivative_time_constant_s must be positive");
+  }
+  filter_alpha_ = 1.0 - std::exp(-dt_s / gains.derivative_time_constant_s);
+}
+
+Vector6d WrenchPid::Update(const Vector6d& measured_wrench_P, const Vector6d& command_wrench_P, bool integrate) {
+  if (!started_) {
+    filtered_P_ = measured_wrench_P;
+    started_ = true;
+  }
+  const Vector6d previous_P = filtered_P_;
+  filtered_P_ += filter_alpha_ * (measured_wrench_P - filtered_P_);
+  // e_w = F̄_e − F_e (see the header: the literal F_e − F̄_e is positive feedback on a contact)
+  error_P_ = command_wrench_P - measured_wrench_P;
+  // the command is constant between steps: ė_w = −dF_e/dt, taken on the filtered measurement
+  const Vector6d error_rate_P = -(filtered_P_ - previous_P) / dt_s_;
+  if (integrate) SetIntegralTerm(integral_term_ + gains_.ki.cwiseProduct(error_P_) * dt_s_);
+  return gains_.kp.cwiseProduct(error_P_) + integral_term_ + gains_.kd.cwiseProduct(error_rate_P);
+}
+
+void WrenchPid::SetIntegralTerm(const Vector6d& integral_term) {
+  integral_term_ = integral_term.cwiseMax(-gains_.integral_limit).cwiseMin(gains_.integral_limit);
+}
+
+Vector6d WrenchInP(const Eigen::Quaterniond& q_WP, const Vector6d& wrench_W) {
+  const Eigen::Matrix3d R_PW = q_WP.normalized().toRotationMatrix().transpose();
+  Vector6d wrench_P;
+  wrench_P << R_PW * wrench_W.head<3>(), R_PW * wrench_W.tail<3>();
+  return wrench_P;
+}
+
+DirectWrenchController::DirectWrenchController(const model::Vehicle& vehicle, const IapControllerConfig& baseline,
+                                               const DirectWrenchConfig& config, double dt_s)
+    : baseline_(vehicle, baseline),
+      direct_(vehicle,
+              [&] {
+                IapControllerConfig direct = baseline;
+                direct.gains = config.gains;
+                return direct;
+              }()),
+      pid_(config.wrench_gains, dt_s),
+      config_(config),
+      dt_s_(dt_s) {}
+
+bool DirectWrenchController::Update(const PoseReference& reference, const PlatformState& state,
+                                    const Vector6d& measured_wrench_P) {
+  if (!measured_wrench_P.allFinite()) return false;
+  if (engaged_) {
+    const Vector6d w_P = pid_.Update(measured_wrench_P, config_.command_wrench_P, !direct_.output().saturated);
+    return direct_.Update(reference, state, w_P, dt_s_);
+  }
+
+  // approach: (10) without the F_e term (zero in free flight; fed back at the first touch it would only
+  // cancel the wall's reaction), the PID's filter kept warm for the trigger and the switch
+  const Vector6d w0_P = pid_.Update(measured_wrench_P, config_.command_wrench_P, false);
+  if (!baseline_.Update(reference, state, Vector6d::Zero(), dt_s_)) return false;
+  const bool touching = pid_.filtered_wrench_P().head<3>().norm() > config_.trigger.force_threshold_N;
+  contact_s_ = touching ? contact_s_ + dt_s_ : 0.0;
+  if (!touching || contact_s_ < config_.trigger.hold_s) return true;
+
+  // switch with bumpless transfer. U = T − w is affine in the PID's output w: a dry run of (21) with no
+  // wrench integral (dt 0 integrates nothing) gives U_0, and k_w^I∫e_w = U_0 − U_baseline makes U continue.
+  direct_.Update(reference, state, w0_P, 0.0);
+  pid_.SetIntegralTerm(direct_.output().wrench_P - baseline_.output().wrench_P);
+  engaged_ = true;
+  return direct_.Update(reference, state, w0_P + pid_.integral_term(), dt_s_);
+}
+
+}  // namespace iapsim::control
