@@ -87,4 +87,22 @@ elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
 if pgrep -f -- "$work/live" > /dev/null; then fail "processes left behind: $(pgrep -af -- "$work/live")"; fi
 "$iapsim" info "$work/live/run.bag" > /dev/null || fail "the stopped run's bag is not readable"
 
+# a tracked flight: `run` evaluates it, `evaluate` recomputes its metrics and plots, `regress` rejects a bad suite
+"$iapsim" run "$src/configs/regression/three_star_spiral.yaml" --duration 2 --out "$work/spiral" \
+  > "$work/spiral.out" 2>&1 || fail "spiral run: $(cat "$work/spiral.out")"
+grep -q "position RMSE" "$work/spiral.out" || fail "run printed no tracking metrics: $(cat "$work/spiral.out")"
+"$iapsim" evaluate "$work/spiral" > "$work/evaluate.out" 2>&1 || fail "evaluate: $(cat "$work/evaluate.out")"
+grep -q "position RMSE" "$work/evaluate.out" || fail "evaluate: $(cat "$work/evaluate.out")"
+for png in tracking_pose.png tracking_error.png; do
+  [ -s "$work/spiral/$png" ] || fail "no $png"
+done
+mkdir -p "$work/suite"
+printf 'flights:\n  x:\n    scenario: missing.yaml\n' > "$work/suite/suite.yaml"
+set +e
+"$iapsim" regress "$work/suite" --out "$work/regress" > "$work/regress.out" 2>&1
+code=$?
+set -e
+[ $code -eq 2 ] || fail "regress with a bad suite exited $code: $(cat "$work/regress.out")"
+grep -q "suite.yaml:3" "$work/regress.out" || fail "regress error names no line: $(cat "$work/regress.out")"
+
 echo "cli_test: all checks passed"
