@@ -65,15 +65,6 @@ model::Shape Sphere(double radius_m) {
   return shape;
 }
 
-Eigen::Vector3d ContactForceOn(const MultibodyWorld& world, int body) {
-  Eigen::Vector3d force = Eigen::Vector3d::Zero();
-  for (const Contact& c : world.contacts()) {
-    if (c.body_a == body) force += c.force_on_a_W_N;
-    if (c.body_b == body) force -= c.force_on_a_W_N;
-  }
-  return force;
-}
-
 constexpr char kUnitCubeObj[] =
     "v -0.5 -0.5 -0.5\nv 0.5 -0.5 -0.5\nv -0.5 0.5 -0.5\nv 0.5 0.5 -0.5\n"
     "v -0.5 -0.5 0.5\nv 0.5 -0.5 0.5\nv -0.5 0.5 0.5\nv 0.5 0.5 0.5\n"
@@ -93,7 +84,7 @@ TEST(MeshCollision, ABoxRestsOnATriangleMeshFloorAndReadsItsWeight) {
   MultibodyWorld world(config, kStep_s);
   const int id = world.FindBody("box");
   for (int k = 0; k < 1000; ++k) world.Step();
-  const Eigen::Vector3d force = ContactForceOn(world, id);
+  const Eigen::Vector3d force = world.ContactForce_W(id);
   std::printf(
       "box on a triangle-mesh floor: centre %.6f m (expected -0.4), contact force %.6f N (weight %.4f)\n",
       world.body(id).p_WB_m.z(), force.z(), 2.0 * kGravity_mps2);
@@ -111,7 +102,7 @@ TEST(MeshCollision, AConvexMeshBodyRestsOnTheGroundAtItsOwnHeight) {
   MultibodyWorld world(config, kStep_s);
   const int id = world.FindBody("block");
   for (int k = 0; k < 1000; ++k) world.Step();
-  const Eigen::Vector3d force = ContactForceOn(world, id);
+  const Eigen::Vector3d force = world.ContactForce_W(id);
   std::printf("convex mesh block on the ground: centre %.6f m (expected -0.05), contact force %.6f N\n",
               world.body(id).p_WB_m.z(), force.z());
   EXPECT_NEAR(world.body(id).p_WB_m.z(), -0.05, 1e-4);

@@ -654,4 +654,13 @@ int64_t MultibodyWorld::step_count() const { return impl_->step_count; }
 const BodyState& MultibodyWorld::body(int body) const { return impl_->states.at(body); }
 const std::vector<Contact>& MultibodyWorld::contacts() const { return impl_->contacts; }
 
+Eigen::Vector3d MultibodyWorld::ContactForce_W(int body) const {
+  Eigen::Vector3d force_W_N = Eigen::Vector3d::Zero();
+  for (const Contact& c : impl_->contacts) {
+    if (c.body_a == body) force_W_N += c.force_on_a_W_N;
+    if (c.body_b == body) force_W_N -= c.force_on_a_W_N;
+  }
+  return force_W_N;
+}
+
 }  // namespace iapsim::physics

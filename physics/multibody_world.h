@@ -137,6 +137,8 @@ class MultibodyWorld {
   int64_t step_count() const;
   const BodyState& body(int body) const;
   const std::vector<Contact>& contacts() const;
+  /// The sum of the last step's contact forces on `body` (from everything it touches), in W.
+  Eigen::Vector3d ContactForce_W(int body) const;
 
  private:
   struct Impl;

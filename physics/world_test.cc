@@ -125,16 +125,6 @@ WorldObject Box(const std::string& name, const Eigen::Vector3d& size_m, const Ei
   return object;
 }
 
-// The sum of the contact forces on `body` in the last step.
-Eigen::Vector3d ContactForceOn(const MultibodyWorld& world, int body) {
-  Eigen::Vector3d force = Eigen::Vector3d::Zero();
-  for (const Contact& c : world.contacts()) {
-    if (c.body_a == body) force += c.force_on_a_W_N;
-    if (c.body_b == body) force -= c.force_on_a_W_N;
-  }
-  return force;
-}
-
 TEST(MultibodyWorld, ABoxAtRestReadsItsWeightAndFrictionOpposesSliding) {
   WorldConfig config;
   WorldObject box = Box("box", Eigen::Vector3d(0.4, 0.4, 0.2), Eigen::Vector3d(0.0, 0.0, -0.1), 2.0);
@@ -143,7 +133,7 @@ TEST(MultibodyWorld, ABoxAtRestReadsItsWeightAndFrictionOpposesSliding) {
   MultibodyWorld world(config, 0.001);
   const int id = world.FindBody("box");
   for (int k = 0; k < 500; ++k) world.Step();
-  const Eigen::Vector3d force = ContactForceOn(world, id);
+  const Eigen::Vector3d force = world.ContactForce_W(id);
   EXPECT_NEAR(force.z(), -2.0 * 9.81, 1e-6);  // the ground pushes up (−z in NED) with the weight
   EXPECT_NEAR(force.head<2>().norm(), 0.0, 1e-6);
 
@@ -155,7 +145,7 @@ TEST(MultibodyWorld, ABoxAtRestReadsItsWeightAndFrictionOpposesSliding) {
   for (int k = 0; k < steps; ++k) {
     world.AddForce_W(id, Eigen::Vector3d(15.0, 0.0, 0.0));
     world.Step();
-    mean_force += ContactForceOn(world, id) / steps;
+    mean_force += world.ContactForce_W(id) / steps;
   }
   // within 1%: the box rocks a little on its leading edge while it slides
   EXPECT_NEAR(world.body(id).v_WB_W.x(), (15.0 - 0.5 * 2.0 * 9.81) / 2.0 * steps * 0.001, 0.005);
