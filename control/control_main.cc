@@ -74,7 +74,8 @@ class ControlNode : public bridge::Process {
       }
       controller_.emplace(vehicle_, config_);
     }
-    period_s_ = 1.0 / context.self.rate_hz;
+    // rate_hz 0 runs every clock step
+    period_s_ = context.self.rate_hz > 0 ? 1.0 / context.self.rate_hz : context.scenario.clock.step_s;
   }
 
   void Setup(bridge::Bus& bus) override {

@@ -180,6 +180,8 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvalua
                              "' reports no saturated_updates (is it an iapsim_control in mode track?)");
   }
   tracking["saturated_updates"] = controller["saturated_updates"];
+  // an under-actuated IAP's roll about its joint line is free whatever the reference says
+  tracking["fully_actuated"] = controller.value("fully_actuated", true);
 
   if (evaluation.plots) Plot(csv_path, run_dir, evaluation.vehicle, &tracking);
   metrics["tracking"] = tracking;
@@ -196,7 +198,9 @@ void PrintTracking(const nlohmann::json& tracking) {
   };
   std::printf("  tracking of %s over %.1f s (%zu samples%s):\n", tracking["vehicle"].get<std::string>().c_str(),
               tracking["duration_s"].get<double>(), tracking["samples"].get<size_t>(),
-              tracking["five_dof"].get<bool>() ? ", 5-DOF: roll is free" : "");
+              tracking["five_dof"].get<bool>() || !tracking["fully_actuated"].get<bool>()
+                  ? ", under-actuated: roll is the free swing"
+                  : "");
   row("position RMSE", "position_rmse_m", kAxes, "m");
   row("position max", "position_max_m", kAxes, "m");
   row("attitude RMSE", "attitude_rmse_deg", kAngles, "deg");

@@ -23,8 +23,8 @@ struct TrackingEvaluation {
 std::optional<TrackingEvaluation> ReadTrackingEvaluation(const bridge::Scenario& scenario);
 
 /// Evaluates run_dir/run.bag. Metrics: position error per W axis (RMSE, max |e|, m), ZYX Euler angle error
-/// (RMSE, max |e|, degrees; for 5-DOF references pitch and yaw are exactly the x axis's elevation and
-/// heading, and roll is the free swing), saturation counts. Throws std::runtime_error naming the file
+/// (RMSE, max |e|, degrees; for an under-actuated IAP or a 5-DOF reference pitch and yaw are exactly the x
+/// axis's elevation and heading, and roll is the free swing), saturation counts. Throws std::runtime_error naming the file
 /// when the recording lacks the topics.
 nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvaluation& evaluation);
 
