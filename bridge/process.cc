@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <iostream>
@@ -53,7 +54,16 @@ class Runtime {
         self_index_(schedule_.IndexOf(self.name)),
         control_(control),
         bus_(MakeBusOptions(scenario, self)),
-        last_ack_(schedule_.members().size(), -1) {}
+        last_ack_(schedule_.members().size(), -1) {
+    // the peers whose step-k acks gate this process's step k: every one (recorders) or those it names
+    for (size_t m = 0; m < schedule_.members().size(); ++m) {
+      const std::string& name = schedule_.members()[m].name;
+      const bool named = std::find(self.after.begin(), self.after.end(), name) != self.after.end();
+      if (static_cast<int>(m) != self_index_ && (process_.StepsAfterPeers() || named)) {
+        gating_peers_.push_back(static_cast<int>(m));
+      }
+    }
+  }
 
   // Returns the exit code. Exceptions from the process or the protocol propagate to ProcessMain.
   int Run() {
@@ -220,7 +230,7 @@ class Runtime {
     const int member = schedule_.IndexOf(ack.node);
     if (member < 0) return;
     last_ack_[member] = std::max(last_ack_[member], static_cast<int64_t>(ack.step));
-    if (process_.StepsAfterPeers()) StepWaitingTicks();
+    if (!gating_peers_.empty()) StepWaitingTicks();
   }
 
   void OnTick(const iapsim_msgs::Tick& tick) {
@@ -238,7 +248,7 @@ class Runtime {
   void StepWaitingTicks() {
     while (!waiting_ticks_.empty()) {
       const StepInfo info = waiting_ticks_.front();
-      if (process_.StepsAfterPeers() && !PeersAcked(info.step)) return;
+      if (!PeersAcked(info.step)) return;
       waiting_ticks_.erase(waiting_ticks_.begin());
       process_.Step(info);
       iapsim_msgs::StepAck ack;
@@ -250,10 +260,8 @@ class Runtime {
   }
 
   bool PeersAcked(uint64_t k) const {
-    for (size_t m = 0; m < last_ack_.size(); ++m) {
-      const int member = static_cast<int>(m);
-      if (member == self_index_ || !schedule_.Due(member, k)) continue;
-      if (last_ack_[m] < static_cast<int64_t>(k)) return false;
+    for (const int member : gating_peers_) {
+      if (schedule_.Due(member, k) && last_ack_[member] < static_cast<int64_t>(k)) return false;
     }
     return true;
   }
@@ -284,6 +292,7 @@ class Runtime {
   ControlClient& control_;
   Bus bus_;
   std::vector<int64_t> last_ack_;  // per schedule member: highest step acknowledged
+  std::vector<int> gating_peers_;  // schedule members whose ack of k this process waits for before step k
   std::vector<uint64_t> late_acks_;
   std::vector<StepInfo> waiting_ticks_;
   int64_t sim_ns_ = 0;

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <functional>
+#include <map>
+#include <set>
 
 namespace iapsim::bridge {
 namespace {
@@ -30,6 +32,34 @@ void ReadTopicList(YamlMap& map, const std::string& key, std::vector<std::string
       map.Fail(key, "every entry must be a topic prefix starting with '/'");
     }
     topics->push_back(item.Scalar());
+  }
+}
+
+// `after` names processes of the scenario other than the clock owner and itself, without a cycle (which
+// would stall the lockstep: each process waiting for the other's ack)
+void CheckStepOrder(const std::vector<ProcessConfig>& processes, const std::map<std::string, YamlMap>& entries) {
+  std::map<std::string, const ProcessConfig*> by_name;
+  for (const auto& p : processes) by_name[p.name] = &p;
+  for (const auto& p : processes) {
+    const YamlMap& map = entries.at(p.name);
+    for (const auto& peer : p.after) {
+      const auto it = by_name.find(peer);
+      if (it == by_name.end()) map.Fail("after", "'" + peer + "' is not a process of this scenario");
+      if (peer == p.name) map.Fail("after", "a process cannot wait for itself");
+      if (it->second->role == ProcessRole::kClock) {
+        map.Fail("after", "'" + peer + "' owns the clock: every process already acts after it");
+      }
+    }
+    // depth-first walk of the processes p waits for, directly or not
+    std::vector<std::string> stack(p.after.begin(), p.after.end());
+    std::set<std::string> seen;
+    while (!stack.empty()) {
+      const std::string name = stack.back();
+      stack.pop_back();
+      if (name == p.name) map.Fail("after", "forms a cycle: '" + p.name + "' would wait for itself");
+      if (!seen.insert(name).second) continue;
+      for (const auto& next : by_name.at(name)->after) stack.push_back(next);
+    }
   }
 }
 
@@ -132,6 +162,7 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
     top.Fail("processes", "expected a map of process name -> {exec, role, rate_hz, params}");
   }
   YamlMap process_maps = top.Map("processes");
+  std::map<std::string, YamlMap> entries;  // for errors found once every process is read
   for (const std::string& name : process_maps.Keys()) {
     if (name.empty() ||
         name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") != std::string::npos) {
@@ -152,6 +183,15 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
     map.OptionalInRange("rate_hz", &p.rate_hz, 0.0, 1e6);
     map.OptionalInRange("hang_timeout_s", &p.hang_timeout_s, 0.05, 3600.0);
     map.OptionalInRange("startup_timeout_s", &p.startup_timeout_s, 0.1, 3600.0);
+    if (map.Has("after")) {
+      const YAML::Node after = map.Raw("after");
+      if (!after.IsSequence()) map.Fail("after", "expected a list of process names");
+      for (const auto& peer : after) {
+        if (!peer.IsScalar()) map.Fail("after", "expected a list of process names");
+        p.after.push_back(peer.Scalar());
+      }
+      map.SetResolved("after", after);
+    }
     p.params = map.Raw("params");
     if (p.params && !p.params.IsMap() && !p.params.IsNull()) map.Fail("params", "expected a map");
     if (!p.params) p.params = YAML::Node(YAML::NodeType::Map);
@@ -173,9 +213,11 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
       }
       s.clock_owner = name;
     }
+    entries.emplace(name, map);
     s.processes.push_back(std::move(p));
   }
   if (s.clock_owner.empty()) top.Fail("processes", "no process has role: clock");
+  CheckStepOrder(s.processes, entries);
   top.Finish();
 
   if (s.recording.enabled) {

@@ -53,6 +53,9 @@ struct ProcessConfig {
   double rate_hz = 0.0;         // 0: every clock step
   double hang_timeout_s = 2.0;  // no heartbeat this long: the process is hung (slack for loaded CI machines)
   double startup_timeout_s = 30.0;
+  // lockstep and fast: acts on step k only after these processes acknowledged k, so it reads their step-k
+  // outputs (a controller fed by the sensors' filtered wrench); no cycles
+  std::vector<std::string> after;
   YAML::Node params;  // validated by the process itself (`EXEC --check`)
   int line = 0;       // line of the process's entry in the scenario file, for messages
 };

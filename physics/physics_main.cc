@@ -7,7 +7,7 @@
 //   publishes   /<vehicle>/state             iapsim_msgs/IapState
 //               /<vehicle>/odom              nav_msgs/Odometry (W -> platform, twist in the platform frame)
 //               /<vehicle>/<sub>/odom        nav_msgs/Odometry per sub-aircraft
-//               /<vehicle>/wrench/external   geometry_msgs/WrenchStamped (contacts, on the platform CoM, in P)
+//               /<vehicle>/wrench/external   geometry_msgs/WrenchStamped (contacts, about P's origin, in P)
 //               /contacts                    iapsim_msgs/ContactArray (publish_contacts)
 //               /latch                       iapsim_msgs/LatchEvent, when a docking latch closes or opens
 

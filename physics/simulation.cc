@@ -201,7 +201,7 @@ void Simulation::ComputeOutputs(int v) {
     const Eigen::Vector3d force_W = a_in ? contact.force_on_a_W_N : Eigen::Vector3d(-contact.force_on_a_W_N);
     const int body = a_in ? contact.body_a : contact.body_b;
     out.external_force_W_N += force_W;
-    out.external_torque_W_Nm += (contact.point_W_m - platform.p_WBcom_m).cross(force_W);
+    out.external_torque_W_Nm += (contact.point_W_m - platform.p_WB_m).cross(force_W);
     for (size_t s = 0; s < subs.size(); ++s) {
       if (subs[s] == body) out.sub_aircraft[s].contact_force_W_N += force_W;
     }

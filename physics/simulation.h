@@ -84,7 +84,8 @@ struct VehicleOutput {
   int platform_body = 0;                // body id in the world
   std::vector<int> sub_aircraft_bodies;  // in the vehicle's order
   std::vector<SubAircraftOutput> sub_aircraft;
-  // resultant of every contact between the vehicle and anything else, moment about the platform's CoM
+  // resultant of every contact between the vehicle and anything else, moment about P's origin (the point
+  // of equations (4), (10) and (19)-(21); a tool moves the platform body's CoM off it)
   Eigen::Vector3d external_force_W_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d external_torque_W_Nm = Eigen::Vector3d::Zero();
   Eigen::Vector3d external_force_P_N = Eigen::Vector3d::Zero();

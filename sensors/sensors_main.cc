@@ -7,7 +7,7 @@
 //   publishes   /<vehicle>/<sub>/imu             sensor_msgs/Imu (no orientation: covariance[0] = −1)
 //               /<vehicle>/<sub>/attitude        sensor_msgs/Imu (EKF orientation R_WS, bias-corrected rate)
 //               /<vehicle>/<sub>/uwb             iapsim_msgs/UwbRanges (received ranges only)
-//               /<vehicle>/wrench/filtered       geometry_msgs/WrenchStamped (P, about its CoM)
+//               /<vehicle>/wrench/filtered       geometry_msgs/WrenchStamped (in P, about its origin)
 //
 // Each sensor runs at its own rate_hz, which must divide the process's rate_hz; the process's rate is the
 // step of the wrench filter.

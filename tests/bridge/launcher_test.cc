@@ -239,6 +239,26 @@ TEST_F(LauncherTest, AnyStartOrderOverTcp) {
             std::string::npos);
 }
 
+TEST_F(LauncherTest, AProcessAfterAPeerSeesThePeersOutputOfTheSameStep) {
+  // the controller consumes the sensor's ranges of step k at step k (a controller fed by a filter process)
+  const std::string scenario = WriteScenario("loop", LoopScenario(5.0));
+  const LaunchResult result =
+      Run(scenario, "run",
+          {"processes.uwb.rate_hz=1000", "processes.control.params.expect_uwb_of_step=true",
+           "processes.control.after=[uwb]"});
+  ASSERT_EQ(result.exit_code, 0) << result.message;  // the controller fails on ranges of another step
+  EXPECT_EQ(Metrics(result)["processes"]["control"]["process"]["steps"], 5001);
+
+  // a cycle would stall the lockstep: rejected up front, naming the key
+  const LaunchResult cycle = Run(scenario, "cycle",
+                                 {"processes.control.after=[uwb]", "processes.uwb.after=[control]"});
+  EXPECT_EQ(cycle.exit_code, 2) << cycle.message;
+  EXPECT_NE(cycle.message.find("after: forms a cycle"), std::string::npos) << cycle.message;
+  const LaunchResult unknown = Run(scenario, "unknown", {"processes.control.after=[imu]"});
+  EXPECT_EQ(unknown.exit_code, 2) << unknown.message;
+  EXPECT_NE(unknown.message.find("'imu' is not a process"), std::string::npos) << unknown.message;
+}
+
 TEST_F(LauncherTest, FastModeIsCausalAndUnpaced) {
   const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
   const LaunchResult result = Run(scenario, "run", {"mode=fast"});

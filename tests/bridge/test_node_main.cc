@@ -3,7 +3,9 @@
 //
 //   behavior: clock       publishes /<vehicle>/state (IapState) every step; integrates the last command,
 //                         checking it is the controller's command of its last step (command_period_steps)
-//   behavior: controller  publishes /<vehicle>/cmd (IapCommand) computed from the state of the same step
+//   behavior: controller  publishes /<vehicle>/cmd (IapCommand) computed from the state of the same step;
+//                         with expect_uwb_of_step, fails unless the sensor's ranges of the same step arrived
+//                         first (the scenario's `after: [sensor]` orders the two)
 //   behavior: sensor      publishes /<vehicle>/uwb (UwbRanges) with seeded Gaussian noise
 //
 // In lockstep and fast mode each checks that it sees exactly the step it expects (none skipped, none
@@ -41,6 +43,7 @@ class TestNode : public Process {
     params.Optional("kill_at_step", &kill_at_step_);
     params.Optional("hang_at_step", &hang_at_step_);
     params.OptionalInRange("setup_delay_s", &setup_delay_s_, 0.0, 10.0);
+    params.Optional("expect_uwb_of_step", &expect_uwb_of_step_);
   }
 
   void Setup(Bus& bus) override {
@@ -61,6 +64,12 @@ class TestNode : public Process {
                                              state_ = s;
                                              have_state_ = true;
                                            });
+    }
+    if (expect_uwb_of_step_) {
+      bus.Subscribe<iapsim_msgs::UwbRanges>("/" + vehicle_ + "/uwb",
+                                            [this](const iapsim_msgs::UwbRanges& r, const MessageInfo&) {
+                                              uwb_stamp_ns_ = ToNanoseconds(r.header.stamp);
+                                            });
     }
   }
 
@@ -128,6 +137,10 @@ class TestNode : public Process {
   }
 
   void StepController(const StepInfo& step) {
+    if (expect_uwb_of_step_ && uwb_stamp_ns_ != step.stamp_ns) {
+      Fail("at step " + std::to_string(step.step) + " the latest ranges are stamped " +
+           std::to_string(uwb_stamp_ns_) + " ns, not the step's " + std::to_string(step.stamp_ns) + " ns");
+    }
     iapsim_msgs::IapCommand command;
     command.header.stamp = ToRosTime(step.stamp_ns);
     command.step = step.step;
@@ -164,6 +177,8 @@ class TestNode : public Process {
   int64_t kill_at_step_ = -1;
   int64_t hang_at_step_ = -1;
   double setup_delay_s_ = 0.0;
+  bool expect_uwb_of_step_ = false;
+  int64_t uwb_stamp_ns_ = -1;
   Bus* bus_ = nullptr;
   iapsim_msgs::IapState state_;
   bool have_state_ = false;
