@@ -97,6 +97,7 @@ DirectWrenchConfig ReadDirectWrenchConfig(bridge::YamlMap& params) {
   OptionalNumbers<3>(map, "command_force_N", &force_N, "3 numbers [x, y, z] in the platform frame", false);
   OptionalNumbers<3>(map, "command_torque_Nm", &torque_Nm, "3 numbers [x, y, z] in the platform frame", false);
   config.command_wrench_P << force_N, torque_Nm;
+  map.OptionalInRange("command_ramp_s", &config.command_ramp_s, 0.0, 600.0);
 
   bridge::YamlMap trigger = map.Map("trigger");
   trigger.OptionalInRange("force_threshold_N", &config.trigger.force_threshold_N, 0.0, 1000.0);

@@ -20,7 +20,8 @@ AdmittanceConfig ReadAdmittanceConfig(bridge::YamlMap& params);
 
 /// Reads the section `wrench_control: {gains: {kp, ki, kd, integral_limit} (defaults: Table V's motion
 /// gains), wrench_gains: {kp, ki, kd, integral_limit, derivative_time_constant_s} (Table V), command_force_N,
-/// command_torque_Nm (3 numbers each, the wrench the contact should apply to the platform, in P), trigger:
+/// command_torque_Nm (3 numbers each, the wrench the contact should apply to the platform, in P),
+/// command_ramp_s, trigger:
 /// {force_threshold_N, hold_s}}` of `params`. Throws bridge::ConfigError naming the file, key and line.
 DirectWrenchConfig ReadDirectWrenchConfig(bridge::YamlMap& params);
 

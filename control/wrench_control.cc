@@ -1,5 +1,6 @@
 #include "control/wrench_control.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -49,13 +50,15 @@ DirectWrenchController::DirectWrenchController(const model::Vehicle& vehicle, co
               }()),
       pid_(config.wrench_gains, dt_s),
       config_(config),
+      kd_step_(config.gains.kd - baseline.gains.kd),
       dt_s_(dt_s) {}
 
 bool DirectWrenchController::Update(const PoseReference& reference, const PlatformState& state,
                                     const Vector6d& measured_wrench_P) {
   if (!measured_wrench_P.allFinite()) return false;
   if (engaged_) {
-    const Vector6d w_P = pid_.Update(measured_wrench_P, config_.command_wrench_P, !direct_.output().saturated);
+    ramp_elapsed_s_ += dt_s_;
+    const Vector6d w_P = pid_.Update(measured_wrench_P, command_wrench_P(), !direct_.output().saturated);
     return direct_.Update(reference, state, w_P, dt_s_);
   }
 
@@ -69,10 +72,25 @@ bool DirectWrenchController::Update(const PoseReference& reference, const Platfo
 
   // switch with bumpless transfer. U = T − w is affine in the PID's output w: a dry run of (21) with no
   // wrench integral (dt 0 integrates nothing) gives U_0, and k_w^I∫e_w = U_0 − U_baseline makes U continue.
-  direct_.Update(reference, state, w0_P, 0.0);
-  pid_.SetIntegralTerm(direct_.output().wrench_P - baseline_.output().wrench_P);
+  // The command starts at the wrench measured now and ramps to F̄_e, so the transfer holds nothing of F̄_e
+  // (the slow wrench integral would otherwise take k_w^P F̄_e / (k_w^I ΔF) seconds to shed it). Only the
+  // static part is carried over: the damping terms (the motion k^D of Tables II and V differ, and k_w^D acts
+  // on the impact's force rate) are transients that would stay baked into the integral and push the IAP
+  // into the wall long after the impact.
+  ramp_start_P_ = measured_wrench_P;
+  ramp_elapsed_s_ = 0.0;
+  const Vector6d wrench_damping_P = w0_P - config_.wrench_gains.kp.cwiseProduct(pid_.error_P());
+  direct_.Update(reference, state, wrench_damping_P, 0.0);
+  const Vector6d damping_step_P = kd_step_.cwiseProduct(direct_.tracker().error().e_xi);
+  pid_.SetIntegralTerm(direct_.output().wrench_P - baseline_.output().wrench_P + damping_step_P + wrench_damping_P);
   engaged_ = true;
-  return direct_.Update(reference, state, w0_P + pid_.integral_term(), dt_s_);
+  return direct_.Update(reference, state, wrench_damping_P + pid_.integral_term(), dt_s_);
+}
+
+Vector6d DirectWrenchController::command_wrench_P() const {
+  if (!engaged_) return config_.command_wrench_P;
+  const double progress = config_.command_ramp_s > 0.0 ? std::min(1.0, ramp_elapsed_s_ / config_.command_ramp_s) : 1.0;
+  return ramp_start_P_ + progress * (config_.command_wrench_P - ramp_start_P_);
 }
 
 }  // namespace iapsim::control

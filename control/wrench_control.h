@@ -51,6 +51,9 @@ struct DirectWrenchConfig {
   WrenchPidGains wrench_gains;
   /// F̄_e: the wrench the environment should apply to the platform, in P, about its origin (N, N·m).
   Vector6d command_wrench_P = Vector6d::Zero();
+  /// Once engaged, the command ramps linearly from the wrench measured at the switch to F̄_e over this
+  /// time (s; 0: a step).
+  double command_ramp_s = 2.0;
   ContactTrigger trigger;
 };
 
@@ -88,7 +91,8 @@ Vector6d WrenchInP(const Eigen::Quaterniond& q_WP, const Vector6d& wrench_W);
 
 /// The wall-push controller of §VI-F: the baseline (10) with Table II gains and F_e = 0 while it
 /// approaches, then, once the trigger holds, (21) with Table V gains and the wrench PID. At the switch the
-/// wrench integral is set so that U continues where the baseline left it (bumpless transfer).
+/// wrench integral is set so that U continues where the baseline left it (bumpless transfer), and the
+/// command ramps from the wrench measured then to F̄_e.
 class DirectWrenchController {
  public:
   DirectWrenchController(const model::Vehicle& vehicle, const IapControllerConfig& baseline,
@@ -100,6 +104,8 @@ class DirectWrenchController {
 
   const ControlOutput& output() const { return engaged_ ? direct_.output() : baseline_.output(); }
   bool engaged() const { return engaged_; }
+  /// The wrench command of this instant: F̄_e before the switch and after the ramp, in P.
+  Vector6d command_wrench_P() const;
   const WrenchPid& wrench_pid() const { return pid_; }
   const IapController& active_controller() const { return engaged_ ? direct_ : baseline_; }
 
@@ -108,8 +114,11 @@ class DirectWrenchController {
   IapController direct_;
   WrenchPid pid_;
   DirectWrenchConfig config_;
+  Vector6d kd_step_;  // k^D of (21) minus the baseline's: the damping left out of the bumpless transfer
   double dt_s_;
   double contact_s_ = 0.0;  // how long the filtered force has stayed above the threshold
+  Vector6d ramp_start_P_ = Vector6d::Zero();  // the wrench measured at the switch
+  double ramp_elapsed_s_ = 0.0;
   bool engaged_ = false;
 };
 

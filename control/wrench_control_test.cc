@@ -96,12 +96,12 @@ TEST(WrenchPid, AWrenchInWIsExpressedInTheRotatedPlatformFrame) {
   EXPECT_NEAR(in_P[1], -1.0, 1e-12);
 }
 
-TEST(DirectWrenchController, SwitchesOnContactWithoutAJumpInU) {
+TEST(DirectWrenchController, SwitchesOnContactWithUContinuousUpToTheDampingStep) {
   const model::Vehicle vehicle =
       model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star.yaml");
   DirectWrenchConfig config;
   config.command_wrench_P << 1.5, 4, 0, 0, 0, -4;
-  config.trigger.hold_s = 0.3;  // the PID's filter (0.05 s) has settled: its derivative is small
+  config.trigger.hold_s = 1.0;  // the PID's filter (0.05 s) has settled: its derivative term is negligible
   DirectWrenchController controller(vehicle, IapControllerConfig(), config, kControlStep_s);
   // a pose and velocity error, so Table II and Table V gains give different U
   PoseReference reference;
@@ -112,14 +112,17 @@ TEST(DirectWrenchController, SwitchesOnContactWithoutAJumpInU) {
   state.v_WP_P_mps << -0.05, 0.02, 0.0;
   Vector6d contact_P = (Vector6d() << 1.0, 0.5, 0.0, 0.0, 0.0, -0.5).finished();
   Vector6d previous_U = Vector6d::Zero();
-  double change_before = 0.0, switch_jump = 0.0, max_change_after = 0.0;
+  double change_before = 0.0, max_change_after = 0.0;
+  Vector6d switch_jump = Vector6d::Zero();
   int switched_at = -1;
-  for (int k = 0; k < 200; ++k) {
+  Vector6d command_at_switch = Vector6d::Zero();
+  for (int k = 0; k < 700; ++k) {
     ASSERT_TRUE(controller.Update(reference, state, k >= 40 ? contact_P : Vector6d::Zero()));
     const Vector6d U = controller.output().wrench_P;
     if (switched_at < 0 && controller.engaged()) {
       switched_at = k;
-      switch_jump = (U - previous_U).norm();
+      switch_jump = U - previous_U;
+      command_at_switch = controller.command_wrench_P();
     } else if (switched_at >= 0) {
       max_change_after = std::max(max_change_after, (U - previous_U).norm());
     } else {
@@ -129,9 +132,9 @@ TEST(DirectWrenchController, SwitchesOnContactWithoutAJumpInU) {
   }
   // the filtered force needs a few steps to pass 0.5 N, then the hold
   std::printf("engaged at step %d; change of U per step: %.2e before, %.2e at the switch, at most %.4f after\n",
-              switched_at, change_before, switch_jump, max_change_after);
-  EXPECT_GT(switched_at, 40 + 0.3 / kControlStep_s - 1);
-  EXPECT_LT(switched_at, 40 + 0.3 / kControlStep_s + 10);
+              switched_at, change_before, switch_jump.norm(), max_change_after);
+  EXPECT_GT(switched_at, 40 + 1.0 / kControlStep_s - 1);
+  EXPECT_LT(switched_at, 40 + 1.0 / kControlStep_s + 10);
   // what the switch would cost without the transfer: Table V's (21) from a zero wrench integral
   IapControllerConfig direct_config;
   direct_config.gains = config.gains;
@@ -143,9 +146,18 @@ TEST(DirectWrenchController, SwitchesOnContactWithoutAJumpInU) {
   const double unbumped = (direct.output().wrench_P - baseline.output().wrench_P).norm();
   std::printf("without bumpless transfer U would jump by %.3f\n", unbumped);
   EXPECT_GT(unbumped, 1.0);
-  // no more than one integral step of each law: the baseline's k^I e_T dt and (21)'s first
-  EXPECT_LT(switch_jump, 2.5 * change_before);
+  // the static part carries over; U steps only by the difference of the damping terms −k^D e_ξ of Table V
+  // and Table II (a transient the transfer must not bake into the wrench integral), plus one integral step
+  // of each law
+  const Vector6d damping_step = -(config.gains.kd - IapControllerConfig().gains.kd)
+                                     .cwiseProduct(controller.active_controller().tracker().error().e_xi);
+  std::printf("jump at the switch %.4f, the damping step %.4f\n", switch_jump.norm(), damping_step.norm());
+  EXPECT_GT(damping_step.norm(), 0.1);
+  EXPECT_LT((switch_jump - damping_step).norm(), 2.5 * change_before);
   EXPECT_LT(max_change_after, 0.02 * unbumped);
+  // the command ramps from the wrench measured at the switch to F̄_e over command_ramp_s (2 s)
+  EXPECT_LT((command_at_switch - contact_P).norm(), 1e-12);
+  EXPECT_LT((controller.command_wrench_P() - config.command_wrench_P).norm(), 1e-12);
 }
 
 TEST(DirectWrenchController, ReadsItsSection) {
