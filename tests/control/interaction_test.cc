@@ -1,0 +1,181 @@
+// Interaction control (seed §IV-B, §IV-C) closing the loop on the Bullet IAP in-process: physics at 1 kHz,
+// control at 200 Hz, the contact wrench through the sensors' second-order filter (§VI-E) as in the graph.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "control/admittance.h"
+#include "control/wrench_control.h"
+#include "model/urdf.h"
+#include "physics/simulation.h"
+#include "sensors/wrench_filter.h"
+
+namespace iapsim::control {
+namespace {
+
+constexpr double kGravity = 9.81;
+constexpr double kPhysicsStep_s = 0.001;
+constexpr int kStepsPerControl = 5;  // 200 Hz
+constexpr double kControlStep_s = kStepsPerControl * kPhysicsStep_s;
+
+// The three-star IAP with its 1 m pole along −x at (0, 0, −2), optionally facing a wall.
+class PoleIap {
+ public:
+  explicit PoleIap(const std::vector<physics::WorldObject>& objects = {})
+      : vehicle_(model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star_pole.yaml")),
+        filter_(sensors::WrenchFilterConfig(), kPhysicsStep_s) {
+    physics::SimulationConfig world;
+    world.step_s = kPhysicsStep_s;
+    world.world.ground = false;
+    world.world.gravity_mps2 = kGravity;
+    world.world.objects = objects;
+    physics::VehicleSpec spec;
+    spec.name = vehicle_.name;
+    spec.vehicle = vehicle_;
+    spec.description = model::ParseUrdf(model::GenerateUrdf(vehicle_), vehicle_.name + ".urdf");
+    spec.p_WP_m = Eigen::Vector3d(0, 0, -2);
+    world.vehicles.push_back(spec);
+    sim_ = std::make_unique<physics::Simulation>(world);
+  }
+
+  const model::Vehicle& vehicle() const { return vehicle_; }
+
+  PlatformState State() const {
+    const physics::BodyState& body = sim_->world().body(sim_->output(0).platform_body);
+    PlatformState state;
+    state.p_WP_m = body.p_WB_m;
+    state.q_WP = body.q_WB;
+    state.v_WP_P_mps = body.q_WB.conjugate() * body.v_WB_W;
+    state.w_WP_P_radps = body.q_WB.conjugate() * body.w_WB_W;
+    return state;
+  }
+
+  /// The contact wrench on the platform through the §VI-E low-pass, in P about its origin.
+  const Vector6d& filtered_wrench_P() const { return filtered_P_; }
+  double max_raw_force_N() const { return max_raw_force_N_; }
+
+  /// Runs the physics for one control period with `command` held, `force_W_N` pushing the platform.
+  void Step(const ControlOutput& command, const Eigen::Vector3d& force_W_N = Eigen::Vector3d::Zero()) {
+    for (size_t i = 0; i < vehicle_.sub_aircraft.size(); ++i) {
+      physics::SubAircraftSetpoint setpoint;
+      setpoint.thrust_N = command.sub_aircraft[i].thrust_N;
+      setpoint.q_WS = command.sub_aircraft[i].q_WS;
+      ASSERT_TRUE(sim_->SetCommand(0, static_cast<int>(i), setpoint));
+    }
+    const int platform = sim_->output(0).platform_body;
+    for (int s = 0; s < kStepsPerControl; ++s) {
+      sim_->mutable_world().AddForce_W(platform, force_W_N);
+      sim_->Step();
+      const physics::VehicleOutput& out = sim_->output(0);
+      Vector6d raw_P;
+      raw_P << out.external_force_P_N, out.external_torque_P_Nm;
+      max_raw_force_N_ = std::max(max_raw_force_N_, out.external_force_P_N.norm());
+      filtered_P_ = filter_.Update(raw_P);
+    }
+  }
+
+ private:
+  model::Vehicle vehicle_;
+  std::unique_ptr<physics::Simulation> sim_;
+  sensors::WrenchFilter filter_;
+  Vector6d filtered_P_ = Vector6d::Zero();
+  double max_raw_force_N_ = 0.0;
+};
+
+PoseReference Hold(const Eigen::Vector3d& p_WP_m) {
+  PoseReference reference;
+  reference.p_WP_m = p_WP_m;
+  return reference;
+}
+
+// §VI-F on Bullet: the baseline flies the pole onto a wall, (21) engages on contact and holds the commanded
+// wrench on the axes the contact carries.
+TEST(Interaction, DirectWrenchControlPushesAWallWithTheCommandedWrench) {
+  // a rigid wall facing +x 5 cm beyond the pole's tip; rough (friction 8 times the vehicle's 0.5: μ 4, as
+  // the real flight's rough plate): the 4 N sideways command rides on 1.5 N of normal force
+  physics::WorldObject wall;
+  wall.name = "wall";
+  wall.shapes.resize(1);
+  wall.shapes[0].box_size_m = Eigen::Vector3d(0.2, 4.0, 4.0);
+  wall.p_WO_m = Eigen::Vector3d(-1.05 - 0.1, 0.0, -2.0);
+  wall.material.friction = 8.0;
+  PoleIap iap({wall});
+
+  DirectWrenchConfig config;
+  config.command_wrench_P << 1.5, 4, 0, 0, 0, -4;
+  // Table V's k_w^D (2 s, 1 s) acts on the force rate through the §VI-E filter's lag and the sub-aircraft's
+  // thrust lag; on a rigid contact the loop rings and the IAP bounces off the wall (stable up to 0.3 times,
+  // diverging at 0.5 times, measured). The scenario and this test use 0.1 times.
+  config.wrench_gains.kd *= 0.1;
+  DirectWrenchController controller(iap.vehicle(), IapControllerConfig(), config, kControlStep_s);
+  // the reference lies 0.1 m into the wall: the baseline flies the pole onto it (the x error stays, §VI-F)
+  const PoseReference reference = Hold(Eigen::Vector3d(-0.15, 0.0, -2.0));
+  const double duration_s = 90.0, average_from_s = 80.0;  // the y integral (k_w^I 0.1/s) is slow
+  Vector6d mean_P = Vector6d::Zero(), pose_error = Vector6d::Zero();
+  double engaged_at_s = -1.0;
+  int samples = 0;
+  for (int k = 0; k * kControlStep_s < duration_s; ++k) {
+    const PlatformState state = iap.State();
+    ASSERT_TRUE(controller.Update(reference, state, iap.filtered_wrench_P()));
+    if (engaged_at_s < 0 && controller.engaged()) engaged_at_s = k * kControlStep_s;
+    iap.Step(controller.output());
+    if (k * kControlStep_s >= average_from_s) {
+      mean_P += iap.filtered_wrench_P();
+      pose_error.head<3>() += state.p_WP_m - reference.p_WP_m;
+      pose_error.tail<3>() += Eigen::AngleAxisd(state.q_WP).angle() * Eigen::AngleAxisd(state.q_WP).axis();
+      ++samples;
+    }
+  }
+  mean_P /= samples;
+  pose_error /= samples;
+  std::printf("wall push: engaged at %.2f s; mean wrench over the last %.0f s (P): force [%.3f %.3f %.3f] N, "
+              "torque [%.3f %.3f %.3f] N·m; commanded [1.5 4 0] N, [0 0 -4] N·m\n",
+              engaged_at_s, duration_s - average_from_s, mean_P[0], mean_P[1], mean_P[2], mean_P[3], mean_P[4],
+              mean_P[5]);
+  std::printf("           pose error: [%.3f %.3f %.3f] m, rotation vector [%.2f %.2f %.2f] deg; max raw contact "
+              "force %.2f N; wrench integral [%.2f %.2f %.2f %.2f %.2f %.2f]\n",
+              pose_error[0], pose_error[1], pose_error[2], pose_error[3] * 180 / M_PI, pose_error[4] * 180 / M_PI,
+              pose_error[5] * 180 / M_PI, iap.max_raw_force_N(), controller.wrench_pid().integral_term()[0],
+              controller.wrench_pid().integral_term()[1], controller.wrench_pid().integral_term()[2],
+              controller.wrench_pid().integral_term()[3], controller.wrench_pid().integral_term()[4],
+              controller.wrench_pid().integral_term()[5]);
+  ASSERT_GT(engaged_at_s, 0.0);
+  // the axes the contact carries: normal force, friction along y, and the yaw moment of the tip force
+  EXPECT_NEAR(mean_P[0], 1.5, 0.15);
+  EXPECT_NEAR(mean_P[1], 4.0, 0.4);
+  EXPECT_NEAR(mean_P[5], -4.0, 0.4);
+  EXPECT_EQ(controller.active_controller().rejected_updates(), 0u);
+}
+
+
+
+TEST(Interaction, AdmittanceMovesTheReferenceByForceOverStiffness) {
+  PoleIap iap;
+  IapController controller(iap.vehicle(), IapControllerConfig());
+  Admittance admittance(AdmittanceConfig(), kControlStep_s);
+  const PoseReference nominal = Hold(Eigen::Vector3d(0, 0, -2));
+  const Eigen::Vector3d push_W_N(3.0, -2.0, 0.0);
+  PoseReference revised;
+  const Vector6d push_W = (Vector6d() << push_W_N, Eigen::Vector3d::Zero()).finished();
+  for (int k = 0; k * kControlStep_s < 20.0; ++k) {
+    const PlatformState state = iap.State();
+    // the admittance yields to the known push and (10) cancels it as its F_e, so the IAP follows the
+    // revised reference
+    revised = admittance.Update(nominal, push_W);
+    ASSERT_TRUE(controller.Update(revised, state, WrenchInP(state.q_WP, push_W), kControlStep_s));
+    iap.Step(controller.output(), push_W_N);
+  }
+  const Eigen::Vector3d expected_m = nominal.p_WP_m + push_W_N / 100.0;  // K_e = 100 N/m (Table IV)
+  const Eigen::Vector3d reached_m = iap.State().p_WP_m;
+  std::printf("admittance: reference moved by [%.4f %.4f %.4f] m, the IAP by [%.4f %.4f %.4f] m (F/K: [%.3f %.3f 0])\n",
+              revised.p_WP_m.x() - nominal.p_WP_m.x(), revised.p_WP_m.y() - nominal.p_WP_m.y(),
+              revised.p_WP_m.z() - nominal.p_WP_m.z(), reached_m.x() - nominal.p_WP_m.x(),
+              reached_m.y() - nominal.p_WP_m.y(), reached_m.z() - nominal.p_WP_m.z(), push_W_N.x() / 100,
+              push_W_N.y() / 100);
+  EXPECT_LT((revised.p_WP_m - expected_m).norm(), 1e-6);
+  EXPECT_LT((reached_m - expected_m).norm(), 0.005);
+}
+
+}  // namespace
+}  // namespace iapsim::control
