@@ -4,15 +4,24 @@
 //   mode: track   the tracker (10) or (16), picked by the rank test (8), follows `trajectory` (time 0 = the
 //                 first state) or the pose commands arriving on `reference.topic` (a replayed command log:
 //                 `iapsim replay`); allocation (17) within the thrust limits; (18) per sub-aircraft.
+//                 interaction: admittance  (19)-(20) (Table IV) revise the reference from the contact
+//                 wrench, which (10) also feeds forward (§VI-E); direct_wrench: (21) (Table V) takes over
+//                 from (10) once contact holds and drives the contact wrench to a command (§VI-F). The
+//                 wrench comes from wrench_topic (the sensors' low-passed wrench; give this process
+//                 `after: [sensors]` in lockstep so it reads the wrench of its own step).
 //   mode: hover   a constant, open-loop command source: from the first state, each sub-aircraft's share of
 //                 the hover wrench by (17) at the platform's attitude levelled (its yaw kept), as a
 //                 collective thrust and an attitude from (18) with the sub-aircraft's initial yaw.
 //
 //   subscribes  /<vehicle>/state      iapsim_msgs/IapState
-//               reference.topic       geometry_msgs/PoseStamped or iapsim_msgs/Setpoint (track with reference)
+//               reference.topic       geometry_msgs/PoseStamped or iapsim_msgs/Setpoint (track with
+//               reference) wrench_topic          geometry_msgs/WrenchStamped, in P about its origin
+//               (interaction)
 //   publishes   /<vehicle>/cmd        iapsim_msgs/IapCommand (stamped with the state it answers)
 //               /<vehicle>/setpoint   iapsim_msgs/Setpoint   (track: the reference of that command)
 //               /<vehicle>/wrench/command  geometry_msgs/WrenchStamped (track: U, in P about its origin)
+//               /<vehicle>/wrench/target   geometry_msgs/WrenchStamped (direct_wrench, once engaged: the
+//                                          wrench command of that step, in P about its origin)
 
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/WrenchStamped.h>
@@ -25,11 +34,13 @@
 
 #include "bridge/eigen_msgs.h"
 #include "bridge/process.h"
+#include "control/admittance.h"
 #include "control/allocation.h"
 #include "control/commanded_reference.h"
 #include "control/control_config.h"
 #include "control/iap_controller.h"
 #include "control/trajectory.h"
+#include "control/wrench_control.h"
 #include "model/vehicle.h"
 
 namespace iapsim::control {
@@ -54,10 +65,24 @@ class ControlNode : public bridge::Process {
     if (!params.Has("mode")) params.Fail("mode", "is required: track or hover");
     params.OptionalChoice("mode", &mode_, {"track", "hover"});
     config_ = ReadControllerConfig(params);
+    // rate_hz 0 runs every clock step
+    period_s_ = context.self.rate_hz > 0 ? 1.0 / context.self.rate_hz : context.scenario.clock.step_s;
+    params.OptionalChoice("interaction", &interaction_, {"none", "admittance", "direct_wrench"});
+    if (interaction_ != "none") {
+      if (mode_ != "track") params.Fail("interaction", "needs mode: track");
+      wrench_topic_ = "/" + vehicle_name_ + "/wrench/filtered";
+      params.Optional("wrench_topic", &wrench_topic_);
+      if (interaction_ == "admittance") {
+        admittance_.emplace(ReadAdmittanceConfig(params), period_s_);
+      } else {
+        wrench_controller_.emplace(vehicle_, config_, ReadDirectWrenchConfig(params), period_s_);
+      }
+    }
     if (mode_ == "track") {
       if (params.Has("trajectory") == params.Has("reference")) {
-        params.Fail("trajectory", "mode track needs exactly one of trajectory (a known path) or reference "
-                                  "(pose commands from a topic)");
+        params.Fail("trajectory",
+                    "mode track needs exactly one of trajectory (a known path) or reference "
+                    "(pose commands from a topic)");
       }
       if (params.Has("trajectory")) {
         bridge::YamlMap trajectory = params.Map("trajectory");
@@ -72,19 +97,25 @@ class ControlNode : public bridge::Process {
         reference.Finish();
         commanded_.emplace(time_constant_s);
       }
-      controller_.emplace(vehicle_, config_);
+      if (!wrench_controller_) controller_.emplace(vehicle_, config_);
     }
-    // rate_hz 0 runs every clock step
-    period_s_ = context.self.rate_hz > 0 ? 1.0 / context.self.rate_hz : context.scenario.clock.step_s;
   }
 
   void Setup(bridge::Bus& bus) override {
     bus_ = &bus;
-    bus.Subscribe<iapsim_msgs::IapState>("/" + vehicle_name_ + "/state",
-                                         [this](const iapsim_msgs::IapState& state, const bridge::MessageInfo&) {
-                                           state_ = state;
-                                           have_state_ = true;
-                                         });
+    bus.Subscribe<iapsim_msgs::IapState>(
+        "/" + vehicle_name_ + "/state",
+        [this](const iapsim_msgs::IapState& state, const bridge::MessageInfo&) {
+          state_ = state;
+          have_state_ = true;
+        });
+    if (!wrench_topic_.empty()) {
+      bus.Subscribe<geometry_msgs::WrenchStamped>(
+          wrench_topic_, [this](const geometry_msgs::WrenchStamped& m, const bridge::MessageInfo&) {
+            wrench_P_ << bridge::FromMsg(m.wrench.force), bridge::FromMsg(m.wrench.torque);
+            wrench_stamp_ = m.header.stamp;
+          });
+    }
     if (reference_topic_.empty()) return;
     const auto command = [this](const ros::Time& stamp, const geometry_msgs::Pose& pose, bool five_dof) {
       if (!commanded_->Add(stamp.toSec(), bridge::FromMsg(pose.position), bridge::FromMsg(pose.orientation),
@@ -107,7 +138,7 @@ class ControlNode : public bridge::Process {
 
   void Step(const bridge::StepInfo&) override {
     if (!have_state_ || state_.bodies.empty()) return;  // realtime: nothing to answer yet
-    if (controller_) {
+    if (controller_ || wrench_controller_) {
       Track();
     } else if (command_.sub_aircraft.empty()) {
       HoldHover();
@@ -121,9 +152,22 @@ class ControlNode : public bridge::Process {
   void Finish(nlohmann::json* report) override {
     (*report)["commands_sent"] = commands_;
     (*report)["fully_actuated"] = Allocation(vehicle_).fully_actuated();
-    if (controller_) {
-      (*report)["rejected_updates"] = controller_->rejected_updates();
-      (*report)["saturated_updates"] = controller_->saturated_updates();
+    if (const IapController* controller = active_controller()) {
+      (*report)["rejected_updates"] = controller->rejected_updates();
+      (*report)["saturated_updates"] = controller->saturated_updates();
+    }
+    if (interaction_ != "none") {
+      (*report)["interaction"] = interaction_;
+      // the wrench of another step than the state's (no `after` in lockstep, or a slower sensors process)
+      (*report)["stale_wrench_updates"] = stale_wrench_updates_;
+    }
+    if (admittance_) {
+      (*report)["admittance_saturated_updates"] = admittance_->saturated_updates();
+      (*report)["admittance_rejected_updates"] = admittance_->rejected_updates();
+    }
+    if (wrench_controller_) {
+      (*report)["engaged"] = wrench_controller_->engaged();
+      if (engaged_at_s_) (*report)["engaged_at_s"] = *engaged_at_s_;
     }
     if (commanded_) (*report)["rejected_references"] = rejected_references_;
   }
@@ -138,11 +182,26 @@ class ControlNode : public bridge::Process {
       hold_->p_WP_m = bridge::FromMsg(state_.bodies[0].pose_W.position);
       hold_->q_WP = bridge::FromMsg(state_.bodies[0].pose_W.orientation).normalized();
     }
-    const PoseReference reference =
-        trajectory_ ? trajectory_->Sample(t_s) : commanded_->empty() ? *hold_ : commanded_->current();
-    controller_->Update(reference, PlatformStateOf(state_.bodies[0]), Vector6d::Zero(), period_s_);
+    const PoseReference nominal = trajectory_           ? trajectory_->Sample(t_s)
+                                  : commanded_->empty() ? *hold_
+                                                        : commanded_->current();
+    const PlatformState state = PlatformStateOf(state_.bodies[0]);
+    if (interaction_ != "none" && wrench_stamp_ != state_.header.stamp) ++stale_wrench_updates_;
+    PoseReference reference = nominal;
+    if (admittance_) {
+      reference = admittance_->Update(nominal, WrenchInW(state.q_WP, wrench_P_));
+      controller_->Update(reference, state, wrench_P_, period_s_);
+    } else if (wrench_controller_) {
+      wrench_controller_->Update(reference, state, wrench_P_);
+      if (wrench_controller_->engaged()) {
+        if (!engaged_at_s_) engaged_at_s_ = t_s;
+        PublishWrench("/wrench/target", wrench_controller_->command_wrench_P());
+      }
+    } else {
+      controller_->Update(reference, state, Vector6d::Zero(), period_s_);
+    }
 
-    const ControlOutput& out = controller_->output();
+    const ControlOutput& out = active_controller()->output();
     command_.sub_aircraft.resize(out.sub_aircraft.size());
     for (size_t i = 0; i < out.sub_aircraft.size(); ++i) {
       auto& sub = command_.sub_aircraft[i];
@@ -151,12 +210,21 @@ class ControlNode : public bridge::Process {
       sub.attitude_WS = bridge::ToQuaternionMsg(out.sub_aircraft[i].q_WS);
     }
     PublishReference(reference);
+    PublishWrench("/wrench/command", out.wrench_P);
+  }
+
+  const IapController* active_controller() const {
+    if (wrench_controller_) return &wrench_controller_->active_controller();
+    return controller_ ? &*controller_ : nullptr;
+  }
+
+  void PublishWrench(const std::string& suffix, const Vector6d& wrench_P) {
     geometry_msgs::WrenchStamped wrench;
     wrench.header.stamp = state_.header.stamp;
     wrench.header.frame_id = "P";
-    wrench.wrench.force = bridge::ToVector3Msg(out.wrench_P.head<3>());
-    wrench.wrench.torque = bridge::ToVector3Msg(out.wrench_P.tail<3>());
-    bus_->Publish("/" + vehicle_name_ + "/wrench/command", wrench);
+    wrench.wrench.force = bridge::ToVector3Msg(wrench_P.head<3>());
+    wrench.wrench.torque = bridge::ToVector3Msg(wrench_P.tail<3>());
+    bus_->Publish("/" + vehicle_name_ + suffix, wrench);
   }
 
   void PublishReference(const PoseReference& reference) {
@@ -202,6 +270,14 @@ class ControlNode : public bridge::Process {
   std::optional<PoseReference> hold_;
   uint64_t rejected_references_ = 0;
   std::optional<IapController> controller_;
+  std::string interaction_ = "none";
+  std::string wrench_topic_;  // empty: no interaction
+  std::optional<Admittance> admittance_;
+  std::optional<DirectWrenchController> wrench_controller_;
+  Vector6d wrench_P_ = Vector6d::Zero();  // the latest contact wrench, in P about its origin
+  ros::Time wrench_stamp_;
+  uint64_t stale_wrench_updates_ = 0;
+  std::optional<double> engaged_at_s_;
   double period_s_ = 0.005;
   bridge::Bus* bus_ = nullptr;
   iapsim_msgs::IapState state_;

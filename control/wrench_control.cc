@@ -13,7 +13,8 @@ WrenchPid::WrenchPid(const WrenchPidGains& gains, double dt_s) : gains_(gains), 
   filter_alpha_ = 1.0 - std::exp(-dt_s / gains.derivative_time_constant_s);
 }
 
-Vector6d WrenchPid::Update(const Vector6d& measured_wrench_P, const Vector6d& command_wrench_P, bool integrate) {
+Vector6d WrenchPid::Update(const Vector6d& measured_wrench_P, const Vector6d& command_wrench_P,
+                           bool integrate) {
   if (!started_) {
     filtered_P_ = measured_wrench_P;
     started_ = true;
@@ -39,7 +40,12 @@ Vector6d WrenchInP(const Eigen::Quaterniond& q_WP, const Vector6d& wrench_W) {
   return wrench_P;
 }
 
-DirectWrenchController::DirectWrenchController(const model::Vehicle& vehicle, const IapControllerConfig& baseline,
+Vector6d WrenchInW(const Eigen::Quaterniond& q_WP, const Vector6d& wrench_P) {
+  return WrenchInP(q_WP.conjugate(), wrench_P);
+}
+
+DirectWrenchController::DirectWrenchController(const model::Vehicle& vehicle,
+                                               const IapControllerConfig& baseline,
                                                const DirectWrenchConfig& config, double dt_s)
     : baseline_(vehicle, baseline),
       direct_(vehicle,
@@ -82,14 +88,16 @@ bool DirectWrenchController::Update(const PoseReference& reference, const Platfo
   const Vector6d wrench_damping_P = w0_P - config_.wrench_gains.kp.cwiseProduct(pid_.error_P());
   direct_.Update(reference, state, wrench_damping_P, 0.0);
   const Vector6d damping_step_P = kd_step_.cwiseProduct(direct_.tracker().error().e_xi);
-  pid_.SetIntegralTerm(direct_.output().wrench_P - baseline_.output().wrench_P + damping_step_P + wrench_damping_P);
+  pid_.SetIntegralTerm(direct_.output().wrench_P - baseline_.output().wrench_P + damping_step_P +
+                       wrench_damping_P);
   engaged_ = true;
   return direct_.Update(reference, state, wrench_damping_P + pid_.integral_term(), dt_s_);
 }
 
 Vector6d DirectWrenchController::command_wrench_P() const {
   if (!engaged_) return config_.command_wrench_P;
-  const double progress = config_.command_ramp_s > 0.0 ? std::min(1.0, ramp_elapsed_s_ / config_.command_ramp_s) : 1.0;
+  const double progress =
+      config_.command_ramp_s > 0.0 ? std::min(1.0, ramp_elapsed_s_ / config_.command_ramp_s) : 1.0;
   return ramp_start_P_ + progress * (config_.command_wrench_P - ramp_start_P_);
 }
 

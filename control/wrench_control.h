@@ -24,9 +24,9 @@ namespace iapsim::control {
 
 /// Diagonal wrench gains per axis (force x, y, z, then torque about x, y, z, in P). Defaults: Table V.
 struct WrenchPidGains {
-  Vector6d kp = (Vector6d() << 1, 1, 1, 0.5, 0.5, 0.5).finished();       // N/N, N·m/(N·m)
+  Vector6d kp = (Vector6d() << 1, 1, 1, 0.5, 0.5, 0.5).finished();           // N/N, N·m/(N·m)
   Vector6d ki = (Vector6d() << 0.1, 0.1, 0.1, 0.05, 0.05, 0.05).finished();  // 1/s
-  Vector6d kd = (Vector6d() << 2, 2, 2, 1, 1, 1).finished();               // s
+  Vector6d kd = (Vector6d() << 2, 2, 2, 1, 1, 1).finished();                 // s
   /// Anti-windup: |k_w^I ∫e_w dt| per axis is held within these bounds (N, N·m).
   Vector6d integral_limit = (Vector6d() << 10, 10, 10, 5, 5, 5).finished();
   /// The derivative acts on the measurement low-passed with this time constant (s).
@@ -73,7 +73,7 @@ class WrenchPid {
   /// Bumpless transfer: sets k_w^I ∫e_w (clamped to the limit) so that w takes a chosen value.
   void SetIntegralTerm(const Vector6d& integral_term);
   const Vector6d& integral_term() const { return integral_term_; }
-  const Vector6d& error_P() const { return error_P_; }            // e_w = F̄_e − F_e of the last update
+  const Vector6d& error_P() const { return error_P_; }               // e_w = F̄_e − F_e of the last update
   const Vector6d& filtered_wrench_P() const { return filtered_P_; }  // the low-passed measurement
 
  private:
@@ -88,6 +88,8 @@ class WrenchPid {
 
 /// A wrench (force then torque) in W expressed in P: both parts rotated by R_WPᵀ; the point stays.
 Vector6d WrenchInP(const Eigen::Quaterniond& q_WP, const Vector6d& wrench_W);
+/// The inverse: a wrench in P expressed in W.
+Vector6d WrenchInW(const Eigen::Quaterniond& q_WP, const Vector6d& wrench_P);
 
 /// The wall-push controller of §VI-F: the baseline (10) with Table II gains and F_e = 0 while it
 /// approaches, then, once the trigger holds, (21) with Table V gains and the wrench PID. At the switch the
@@ -98,8 +100,9 @@ class DirectWrenchController {
   DirectWrenchController(const model::Vehicle& vehicle, const IapControllerConfig& baseline,
                          const DirectWrenchConfig& config, double dt_s);
 
-  /// One control step at the fixed dt_s. Once engaged it stays engaged. measured_wrench_P: the (filtered) contact wrench on the platform,
-  /// in P about its origin. Returns false for non-finite inputs (the last safe output is kept).
+  /// One control step at the fixed dt_s. Once engaged it stays engaged. measured_wrench_P: the (filtered)
+  /// contact wrench on the platform, in P about its origin. Returns false for non-finite inputs (the last
+  /// safe output is kept).
   bool Update(const PoseReference& reference, const PlatformState& state, const Vector6d& measured_wrench_P);
 
   const ControlOutput& output() const { return engaged_ ? direct_.output() : baseline_.output(); }
@@ -116,7 +119,7 @@ class DirectWrenchController {
   DirectWrenchConfig config_;
   Vector6d kd_step_;  // k^D of (21) minus the baseline's: the damping left out of the bumpless transfer
   double dt_s_;
-  double contact_s_ = 0.0;  // how long the filtered force has stayed above the threshold
+  double contact_s_ = 0.0;                    // how long the filtered force has stayed above the threshold
   Vector6d ramp_start_P_ = Vector6d::Zero();  // the wrench measured at the switch
   double ramp_elapsed_s_ = 0.0;
   bool engaged_ = false;

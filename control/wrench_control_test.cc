@@ -94,6 +94,8 @@ TEST(WrenchPid, AWrenchInWIsExpressedInTheRotatedPlatformFrame) {
   along_x_W[0] = 1.0;
   const Vector6d in_P = WrenchInP(AttitudeFromEuler(0, 0, M_PI / 2), along_x_W);
   EXPECT_NEAR(in_P[1], -1.0, 1e-12);
+  // and back to W, for the admittance, which works in W
+  EXPECT_LT((WrenchInW(q_WP, measured_P) - measured_W).norm(), 1e-12);
 }
 
 TEST(DirectWrenchController, SwitchesOnContactWithUContinuousUpToTheDampingStep) {

@@ -37,6 +37,19 @@ head -1 "$work/uwb.csv" | grep -q "^time_s,header.seq,header.stamp" || fail "csv
 "$iapsim" info "$work/replayed/run.bag" > "$work/replayed.out"
 grep -Eq "^/old/uwb +iapsim_msgs/UwbRanges +201 " "$work/replayed.out" || fail "replay: $(cat "$work/replayed.out")"
 
+# interaction control is checked before anything flies: a mode it cannot work in, a section for the other law
+check_control() {  # expects exit 2 and the given text from the control process's --check
+  set +e
+  "$bin/iapsim_control" --scenario "$src/configs/regression/wall_push.yaml" --node control --check "${@:2}" \
+    > "$work/check.out" 2>&1
+  local code=$?
+  set -e
+  [ $code -eq 2 ] || fail "control --check $* exited $code: $(cat "$work/check.out")"
+  grep -q "$1" "$work/check.out" || fail "control --check $*: $(cat "$work/check.out")"
+}
+check_control "interaction: needs mode: track" --set processes.control.params.mode=hover
+check_control "wrench_control: unknown key" --set processes.control.params.interaction=admittance
+
 # vehicle description to URDF (type="spherical" joints, one per sub-aircraft)
 "$iapsim" urdf "$src/configs/vehicles/three_star.yaml" -o "$work/three_star.urdf" 2> /dev/null
 [ "$(grep -c '<joint name="sub[0-9]_joint" type="spherical">' "$work/three_star.urdf")" -eq 3 ] || fail "urdf: $(cat "$work/three_star.urdf")"

@@ -19,7 +19,7 @@
 #include "bridge/scenario.h"
 #include "model/urdf.h"
 #include "model/vehicle.h"
-#include "tools/flight_evaluation.h"
+#include "tools/run_evaluation.h"
 
 namespace iapsim::tools {
 namespace {
@@ -48,9 +48,9 @@ std::string YamlFlowList(const std::vector<std::string>& items) {
 
 int Launch(const RunArgs& args, std::vector<std::string> overrides) {
   // the evaluation section is checked before the run, so a typo does not cost a flight
-  std::optional<TrackingEvaluation> tracking;
+  RunEvaluation evaluation;
   try {
-    tracking = ReadTrackingEvaluation(LoadScenario(args.scenario, overrides));
+    evaluation = ReadRunEvaluation(LoadScenario(args.scenario, overrides));
   } catch (const ConfigError& e) {
     std::cerr << "iapsim: invalid configuration: " << e.what() << std::endl;
     return 2;
@@ -90,7 +90,7 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
                 result.run_dir.c_str(), static_cast<unsigned long long>(total), recorded.size());
   }
   std::printf("  %s/log.txt, logs/           launcher and per-process logs\n", result.run_dir.c_str());
-  if (tracking) PrintTracking(EvaluateTracking(result.run_dir, *tracking));
+  EvaluateRun(result.run_dir, evaluation);
   return 0;
 }
 
@@ -127,12 +127,13 @@ int Replay(const ReplayArgs& args) {
 
 int Evaluate(const std::string& run_dir) {
   const Scenario scenario = LoadScenario(run_dir + "/scenario.resolved.yaml");
-  const std::optional<TrackingEvaluation> tracking = ReadTrackingEvaluation(scenario);
-  if (!tracking) {
-    std::cerr << "iapsim: " << scenario.file << ": no evaluation.tracking section: nothing to evaluate" << std::endl;
+  const RunEvaluation evaluation = ReadRunEvaluation(scenario);
+  if (evaluation.empty()) {
+    std::cerr << "iapsim: " << scenario.file << ": no evaluation section (tracking, contact): nothing to evaluate"
+              << std::endl;
     return 2;
   }
-  PrintTracking(EvaluateTracking(run_dir, *tracking));
+  EvaluateRun(run_dir, evaluation);
   return 0;
 }
 

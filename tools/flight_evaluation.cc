@@ -2,14 +2,12 @@
 
 #include <iapsim_msgs/IapState.h>
 #include <iapsim_msgs/Setpoint.h>
-#include <sys/wait.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <stdexcept>
@@ -18,6 +16,7 @@
 #include "bridge/config.h"
 #include "bridge/eigen_msgs.h"
 #include "bridge/message.h"
+#include "tools/plot_script.h"
 
 namespace iapsim::tools {
 namespace {
@@ -30,12 +29,6 @@ struct Pose {
   Eigen::Vector3d p_m;
   Eigen::Vector3d rpy_rad;  // ZYX Euler angles
 };
-
-Eigen::Vector3d EulerZyx(const Eigen::Quaterniond& q) {
-  const Eigen::Matrix3d R = q.normalized().toRotationMatrix();
-  return Eigen::Vector3d(std::atan2(R(2, 1), R(2, 2)), -std::asin(std::clamp(R(2, 0), -1.0, 1.0)),
-                         std::atan2(R(1, 0), R(0, 0)));
-}
 
 Pose PoseOf(const geometry_msgs::Pose& pose) {
   return {bridge::FromMsg(pose.position), EulerZyx(bridge::FromMsg(pose.orientation))};
@@ -60,34 +53,22 @@ struct ErrorStats {
   }
 };
 
-void Plot(const std::string& csv, const std::string& run_dir, const std::string& title, nlohmann::json* tracking) {
-  // Debian's python3 is where install-deps puts matplotlib (a pyenv or venv python3 on PATH may lack it)
-  const std::string python = std::ifstream("/usr/bin/python3").good() ? "/usr/bin/python3" : "python3";
-  const std::string command = python + " '" + IAPSIM_PLOT_TRACKING + "' '" + csv + "' '" + run_dir + "' '" + title + "'";
-  const int status = std::system(command.c_str());
-  if (status != 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    std::fprintf(stderr, "iapsim: plotting failed (%s); metrics and %s are complete\n", command.c_str(), csv.c_str());
-    return;
-  }
-  (*tracking)["plots"] = {run_dir + "/tracking_pose.png", run_dir + "/tracking_error.png"};
-}
-
 }  // namespace
 
-std::optional<TrackingEvaluation> ReadTrackingEvaluation(const bridge::Scenario& scenario) {
-  if (!scenario.evaluation) return std::nullopt;
-  bridge::YamlMap evaluation(scenario.evaluation, scenario.file, "evaluation");
-  if (!evaluation.Has("tracking")) {
-    evaluation.Finish();
-    return std::nullopt;
-  }
+Eigen::Vector3d EulerZyx(const Eigen::Quaterniond& q) {
+  const Eigen::Matrix3d R = q.normalized().toRotationMatrix();
+  return Eigen::Vector3d(std::atan2(R(2, 1), R(2, 2)), -std::asin(std::clamp(R(2, 0), -1.0, 1.0)),
+                         std::atan2(R(1, 0), R(0, 0)));
+}
+
+std::optional<TrackingEvaluation> ReadTrackingEvaluation(bridge::YamlMap& evaluation) {
+  if (!evaluation.Has("tracking")) return std::nullopt;
   TrackingEvaluation out;
   bridge::YamlMap tracking = evaluation.Map("tracking");
   tracking.Optional("vehicle", &out.vehicle);
   tracking.Optional("controller", &out.controller);
   tracking.Optional("plots", &out.plots);
   tracking.Finish();
-  evaluation.Finish();
   return out;
 }
 
@@ -131,7 +112,8 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvalua
 
   const std::string csv_path = run_dir + "/tracking.csv";
   std::ofstream csv(csv_path);
-  csv << "t_s,x_ref_m,y_ref_m,z_ref_m,x_m,y_m,z_m,roll_ref_deg,pitch_ref_deg,yaw_ref_deg,roll_deg,pitch_deg,yaw_deg\n";
+  csv << "t_s,x_ref_m,y_ref_m,z_ref_m,x_m,y_m,z_m,roll_ref_deg,pitch_ref_deg,yaw_ref_deg,roll_deg,pitch_deg,"
+         "yaw_deg\n";
   ErrorStats position, attitude;
   size_t n = 0;
   const int64_t t0_ns = references.front().first;
@@ -183,7 +165,9 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvalua
   // an under-actuated IAP's roll about its joint line is free whatever the reference says
   tracking["fully_actuated"] = controller.value("fully_actuated", true);
 
-  if (evaluation.plots) Plot(csv_path, run_dir, evaluation.vehicle, &tracking);
+  if (evaluation.plots && RunPlotScript(IAPSIM_PLOT_TRACKING, {csv_path, run_dir, evaluation.vehicle})) {
+    tracking["plots"] = {run_dir + "/tracking_pose.png", run_dir + "/tracking_error.png"};
+  }
   metrics["tracking"] = tracking;
   std::ofstream(metrics_path) << metrics.dump(2) << "\n";
   return tracking;
@@ -196,8 +180,9 @@ void PrintTracking(const nlohmann::json& tracking) {
     for (const char* name : names) std::printf(" %s %8.4f", name, tracking[key][name].get<double>());
     std::printf("  %s\n", unit);
   };
-  std::printf("  tracking of %s over %.1f s (%zu samples%s):\n", tracking["vehicle"].get<std::string>().c_str(),
-              tracking["duration_s"].get<double>(), tracking["samples"].get<size_t>(),
+  std::printf("  tracking of %s over %.1f s (%zu samples%s):\n",
+              tracking["vehicle"].get<std::string>().c_str(), tracking["duration_s"].get<double>(),
+              tracking["samples"].get<size_t>(),
               tracking["five_dof"].get<bool>() || !tracking["fully_actuated"].get<bool>()
                   ? ", under-actuated: roll is the free swing"
                   : "");

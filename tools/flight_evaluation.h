@@ -4,11 +4,12 @@
 // seed's Figs. 11-14 compare them. Writes tracking.csv, PNG plots (tools/plot_tracking.py) and a
 // "tracking" section into the run's metrics.json.
 
+#include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 
-#include "bridge/scenario.h"
+#include "bridge/config.h"
 
 namespace iapsim::tools {
 
@@ -18,15 +19,18 @@ struct TrackingEvaluation {
   bool plots = true;
 };
 
-/// The scenario's `evaluation: {tracking: {vehicle, controller, plots}}`, or nothing when it has none.
-/// Throws bridge::ConfigError naming the scenario file and key.
-std::optional<TrackingEvaluation> ReadTrackingEvaluation(const bridge::Scenario& scenario);
+/// The `tracking: {vehicle, controller, plots}` section of a scenario's `evaluation`, or nothing when it has
+/// none. Throws bridge::ConfigError naming the scenario file and key.
+std::optional<TrackingEvaluation> ReadTrackingEvaluation(bridge::YamlMap& evaluation);
 
 /// Evaluates run_dir/run.bag. Metrics: position error per W axis (RMSE, max |e|, m), ZYX Euler angle error
 /// (RMSE, max |e|, degrees; for an under-actuated IAP or a 5-DOF reference pitch and yaw are exactly the x
-/// axis's elevation and heading, and roll is the free swing), saturation counts. Throws std::runtime_error naming the file
-/// when the recording lacks the topics.
+/// axis's elevation and heading, and roll is the free swing), saturation counts. Throws std::runtime_error
+/// naming the file when the recording lacks the topics.
 nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvaluation& evaluation);
+
+/// ZYX Euler angles (roll, pitch, yaw) of an attitude, in rad.
+Eigen::Vector3d EulerZyx(const Eigen::Quaterniond& q);
 
 /// Prints the metrics as a short table.
 void PrintTracking(const nlohmann::json& tracking);

@@ -2,6 +2,7 @@
 // and evaluated like `iapsim run` does, its metrics compared with the suite's upper bounds.
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -12,7 +13,7 @@
 #include "bridge/launcher.h"
 #include "bridge/scenario.h"
 #include "tools/commands.h"
-#include "tools/flight_evaluation.h"
+#include "tools/run_evaluation.h"
 
 namespace iapsim::tools {
 namespace {
@@ -20,11 +21,13 @@ namespace {
 namespace fs = std::filesystem;
 constexpr double kUnchecked = std::numeric_limits<double>::quiet_NaN();
 
-// An upper bound on one number of the tracking metrics: its JSON path (section, key).
+// A bound on one number of the evaluation's metrics: its JSON path (analysis, section, key).
 struct Bound {
+  std::string analysis = "tracking";  // or "contact"
   std::string section;
   std::string key;  // empty: the section is the number
   double max = kUnchecked;
+  double min = kUnchecked;
 };
 
 struct Flight {
@@ -47,7 +50,7 @@ void ReadAxisBounds(bridge::YamlMap& map, const std::string& section, const std:
     if (!YAML::convert<double>::decode(node[i], value) || !(value >= 0.0)) {
       map.Fail(section, "entry " + std::to_string(i) + " must be a non-negative number or null");
     }
-    bounds->push_back({section, axes[i], value});
+    bounds->push_back({"tracking", section, axes[i], value, kUnchecked});
   }
 }
 
@@ -71,11 +74,25 @@ std::vector<Flight> ReadSuite(const std::string& suite_dir) {
     ReadAxisBounds(max, "attitude_max_deg", {"roll", "pitch", "yaw"}, &flight.bounds);
     for (const char* count : {"saturated_updates", "mixer_saturated_steps"}) {
       if (!max.Has(count)) continue;
-      Bound bound{count, "", 0.0};
+      Bound bound{"tracking", count, "", 0.0, kUnchecked};
       max.OptionalInRange(count, &bound.max, 0.0, 1e12);
       flight.bounds.push_back(bound);
     }
     max.Finish();
+    // contact metrics (contact_evaluation.h) by dotted path, e.g. wrench_error_relative.fy: 0.1
+    for (const char* kind : {"contact_max", "contact_min"}) {
+      bridge::YamlMap limits = map.Map(kind);
+      for (const std::string& metric : limits.Keys()) {
+        const auto dot = metric.find('.');
+        Bound bound{"contact", metric.substr(0, dot), dot == std::string::npos ? "" : metric.substr(dot + 1),
+                    kUnchecked, kUnchecked};
+        double value = 0.0;
+        limits.Required(metric, &value);
+        (std::string(kind) == "contact_max" ? bound.max : bound.min) = value;
+        flight.bounds.push_back(bound);
+      }
+      limits.Finish();
+    }
     map.Finish();
     out.push_back(flight);
   }
@@ -101,14 +118,16 @@ int Regress(const RegressArgs& args) {
       return 2;
     }
   }
-  const fs::path out_dir = args.out_dir.empty() ? fs::path("runs") / ("regress-" + bridge::UtcStamp()) : fs::path(args.out_dir);
+  const fs::path out_dir =
+      args.out_dir.empty() ? fs::path("runs") / ("regress-" + bridge::UtcStamp()) : fs::path(args.out_dir);
   fs::create_directories(out_dir);
 
   nlohmann::json report;
   int failures = 0;
-  std::printf("%-22s %-28s %12s %12s  %s\n", "flight", "metric", "value", "max", "result");
+  std::printf("%-22s %-34s %12s %14s  %s\n", "flight", "metric", "value", "bound", "result");
   for (const Flight& flight : flights) {
-    if (!args.only.empty() && std::find(args.only.begin(), args.only.end(), flight.name) == args.only.end()) continue;
+    if (!args.only.empty() && std::find(args.only.begin(), args.only.end(), flight.name) == args.only.end())
+      continue;
     bridge::LaunchOptions options;
     options.scenario_path = flight.scenario;
     options.overrides = {"mode=lockstep"};
@@ -118,27 +137,37 @@ int Regress(const RegressArgs& args) {
     nlohmann::json& entry = report[flight.name];
     entry["run_dir"] = options.out_dir;
     if (result.exit_code != 0) {
-      std::printf("%-22s %-28s %12s %12s  FAILED: %s\n", flight.name.c_str(), "run", "-", "-", result.message.c_str());
+      std::printf("%-22s %-28s %12s %12s  FAILED: %s\n", flight.name.c_str(), "run", "-", "-",
+                  result.message.c_str());
       entry["error"] = result.message;
       ++failures;
       continue;
     }
-    std::optional<TrackingEvaluation> evaluation = ReadTrackingEvaluation(bridge::LoadScenario(flight.scenario));
-    if (!evaluation) {
-      std::printf("%-22s %-28s  FAILED: the scenario has no evaluation.tracking\n", flight.name.c_str(), "run");
+    const RunEvaluation evaluation = ReadRunEvaluation(bridge::LoadScenario(flight.scenario));
+    if (evaluation.empty()) {
+      std::printf("%-22s %-28s  FAILED: the scenario has no evaluation section\n", flight.name.c_str(),
+                  "run");
       ++failures;
       continue;
     }
-    const nlohmann::json tracking = EvaluateTracking(result.run_dir, *evaluation);
-    entry["tracking"] = tracking;
+    const nlohmann::json metrics = EvaluateRun(result.run_dir, evaluation);
+    for (const auto& [analysis, section] : metrics.items()) entry[analysis] = section;
     for (const Bound& bound : flight.bounds) {
-      const nlohmann::json& number = bound.key.empty() ? tracking[bound.section] : tracking[bound.section][bound.key];
-      const double value = number.get<double>();
-      const bool ok = value <= bound.max;
-      const std::string metric = bound.key.empty() ? bound.section : bound.section + "." + bound.key;
-      std::printf("%-22s %-28s %12.4f %12.4f  %s\n", flight.name.c_str(), metric.c_str(), value, bound.max,
-                  ok ? "ok" : "REGRESSION");
-      entry["checks"][metric] = {{"value", value}, {"max", bound.max}, {"ok", ok}};
+      const std::string metric = (bound.analysis == "contact" ? "contact." : "") + bound.section +
+                                 (bound.key.empty() ? "" : "." + bound.key);
+      const nlohmann::json* number = nullptr;
+      if (metrics.contains(bound.analysis) && metrics[bound.analysis].contains(bound.section)) {
+        const nlohmann::json& section = metrics[bound.analysis][bound.section];
+        number = bound.key.empty() ? &section : section.contains(bound.key) ? &section[bound.key] : nullptr;
+      }
+      // a metric the evaluation did not produce, or null (an axis never settled), fails its check
+      const double value = number && number->is_number() ? number->get<double>() : kUnchecked;
+      const bool ok = !std::isnan(value) && !(value > bound.max) && !(value < bound.min);
+      const double limit = std::isnan(bound.max) ? bound.min : bound.max;
+      std::printf("%-22s %-34s %12.4f %4s %9.4f  %s\n", flight.name.c_str(), metric.c_str(), value,
+                  std::isnan(bound.max) ? "min" : "max", limit, ok ? "ok" : "REGRESSION");
+      entry["checks"][metric] = {
+          {"value", value}, {std::isnan(bound.max) ? "min" : "max", limit}, {"ok", ok}};
       if (!ok) ++failures;
     }
     std::printf("%-22s plots and metrics in %s\n", flight.name.c_str(), result.run_dir.c_str());

@@ -8,33 +8,24 @@
 
 #include "control/admittance.h"
 #include "control/iap_controller.h"
-#include "model/urdf.h"
 #include "physics/simulation.h"
+#include "tests/control/in_process_iap.h"
 
 namespace iapsim::control {
 namespace {
 
-constexpr double kGravity = 9.81;
-constexpr double kPhysicsStep_s = 0.001;
-constexpr int kStepsPerControl = 5;  // 200 Hz
+using testing::kGravity;
+using testing::kPhysicsStep_s;
+using testing::kStepsPerControl;
 
 class ClosedLoop {
  public:
   ClosedLoop(const std::string& vehicle_name, const Eigen::Vector3d& start_W_m,
              const IapControllerConfig& config = IapControllerConfig())
-      : vehicle_(model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/" + vehicle_name + ".yaml")),
+      : vehicle_(model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/" + vehicle_name +
+                                    ".yaml")),
         controller_(vehicle_, config) {
-    physics::SimulationConfig world;
-    world.step_s = kPhysicsStep_s;
-    world.world.ground = false;
-    world.world.gravity_mps2 = kGravity;
-    physics::VehicleSpec spec;
-    spec.name = vehicle_.name;
-    spec.vehicle = vehicle_;
-    spec.description = model::ParseUrdf(model::GenerateUrdf(vehicle_), vehicle_.name + ".urdf");
-    spec.p_WP_m = start_W_m;
-    world.vehicles.push_back(spec);
-    sim_ = std::make_unique<physics::Simulation>(world);
+    sim_ = testing::MakeSimulation(vehicle_, start_W_m);
   }
 
   /// The reference at each control step, from the state there (an outer loop such as the admittance).
@@ -42,8 +33,8 @@ class ClosedLoop {
 
   /// Flies `duration_s` towards `reference`, with `force_W_N` pushing the platform; `known_force` passes
   /// that force to the tracker as its F_e.
-  void Fly(const PoseReference& reference, double duration_s, const Eigen::Vector3d& force_W_N = Eigen::Vector3d::Zero(),
-           bool known_force = false) {
+  void Fly(const PoseReference& reference, double duration_s,
+           const Eigen::Vector3d& force_W_N = Eigen::Vector3d::Zero(), bool known_force = false) {
     Fly([&reference](const PlatformState&) { return reference; }, duration_s, force_W_N, known_force);
   }
 
@@ -70,18 +61,11 @@ class ClosedLoop {
     }
   }
 
-  PlatformState State() const {
-    const physics::BodyState& body = sim_->world().body(sim_->output(0).platform_body);
-    PlatformState state;
-    state.p_WP_m = body.p_WB_m;
-    state.q_WP = body.q_WB;
-    state.v_WP_P_mps = body.q_WB.conjugate() * body.v_WB_W;
-    state.w_WP_P_radps = body.q_WB.conjugate() * body.w_WB_W;
-    return state;
-  }
+  PlatformState State() const { return testing::PlatformStateOf(*sim_); }
   Eigen::Vector3d Euler() const {  // roll, pitch, yaw
     const Eigen::Matrix3d R = State().q_WP.toRotationMatrix();
-    return Eigen::Vector3d(std::atan2(R(2, 1), R(2, 2)), -std::asin(std::clamp(R(2, 0), -1.0, 1.0)), YawOf(R));
+    return Eigen::Vector3d(std::atan2(R(2, 1), R(2, 2)), -std::asin(std::clamp(R(2, 0), -1.0, 1.0)),
+                           YawOf(R));
   }
   double AttitudeError_rad(const PoseReference& reference) const {
     return Eigen::AngleAxisd(reference.q_WP.conjugate() * State().q_WP).angle();
@@ -116,7 +100,8 @@ TEST(ClosedLoop, FullyActuatedIapsReachAPoseStep) {
     loop.Fly(target, 30.0);
     const double position_error_m = (loop.State().p_WP_m - target.p_WP_m).norm();
     const double attitude_error_deg = loop.AttitudeError_rad(target) * 180.0 / M_PI;
-    std::printf("%s: 6-DOF step, after 30 s: %.4f m, %.3f deg\n", name.c_str(), position_error_m, attitude_error_deg);
+    std::printf("%s: 6-DOF step, after 30 s: %.4f m, %.3f deg\n", name.c_str(), position_error_m,
+                attitude_error_deg);
     // Table II's integral gains leave a slow tail (poles near −0.2 ± 0.16i rad/s in yaw)
     EXPECT_LT(position_error_m, 0.01) << name;
     EXPECT_LT(attitude_error_deg, 0.25) << name;
@@ -137,10 +122,11 @@ TEST(ClosedLoop, APushIsRejectedByTheIntegralOrCancelledWhenKnown) {
   ClosedLoop known("three_star", start);
   known.Fly(Pose(start, 0, 0, 0), 2.0, push_W_N, true);
   const double known_m = (known.State().p_WP_m - start).norm();
-  std::printf("three_star, 3.6 N push: %.3f m after 2 s, %.4f m after 42 s; told to the tracker: %.4f m after 2 s\n",
-              pushed_m, settled_m, known_m);
-  EXPECT_GT(pushed_m, 0.1);     // the push does move it ...
-  EXPECT_LT(settled_m, 0.01);   // ... the integral brings it back ...
+  std::printf(
+      "three_star, 3.6 N push: %.3f m after 2 s, %.4f m after 42 s; told to the tracker: %.4f m after 2 s\n",
+      pushed_m, settled_m, known_m);
+  EXPECT_GT(pushed_m, 0.1);            // the push does move it ...
+  EXPECT_LT(settled_m, 0.01);          // ... the integral brings it back ...
   EXPECT_LT(known_m, 0.1 * pushed_m);  // ... and F_e cancels it from the start
 }
 
@@ -176,13 +162,16 @@ TEST(ClosedLoop, AdmittanceYieldsByForceOverStiffness) {
   const Eigen::Vector3d push_W_N(3.0, -2.0, 0.0);
   const Vector6d push_W = (Vector6d() << push_W_N, Eigen::Vector3d::Zero()).finished();
   PoseReference revised;
-  loop.Fly([&](const PlatformState&) { return revised = admittance.Update(nominal, push_W); }, 20.0, push_W_N, true);
+  loop.Fly([&](const PlatformState&) { return revised = admittance.Update(nominal, push_W); }, 20.0, push_W_N,
+           true);
   const Eigen::Vector3d expected_m = start + push_W_N / 100.0;  // K_e = 100 N/m (Table IV)
   const Eigen::Vector3d reached_m = loop.State().p_WP_m;
-  std::printf("admittance, 3.6 N push: reference moved [%.4f %.4f %.4f] m, the IAP [%.4f %.4f %.4f] m (F/K [%.3f %.3f 0])\n",
-              revised.p_WP_m.x() - start.x(), revised.p_WP_m.y() - start.y(), revised.p_WP_m.z() - start.z(),
-              reached_m.x() - start.x(), reached_m.y() - start.y(), reached_m.z() - start.z(), push_W_N.x() / 100,
-              push_W_N.y() / 100);
+  std::printf(
+      "admittance, 3.6 N push: reference moved [%.4f %.4f %.4f] m, the IAP [%.4f %.4f %.4f] m (F/K [%.3f "
+      "%.3f 0])\n",
+      revised.p_WP_m.x() - start.x(), revised.p_WP_m.y() - start.y(), revised.p_WP_m.z() - start.z(),
+      reached_m.x() - start.x(), reached_m.y() - start.y(), reached_m.z() - start.z(), push_W_N.x() / 100,
+      push_W_N.y() / 100);
   EXPECT_LT((revised.p_WP_m - expected_m).norm(), 1e-6);
   EXPECT_LT((reached_m - expected_m).norm(), 0.005);
 }

@@ -7,49 +7,30 @@
 
 #include "control/admittance.h"
 #include "control/wrench_control.h"
-#include "model/urdf.h"
 #include "physics/simulation.h"
 #include "sensors/wrench_filter.h"
+#include "tests/control/in_process_iap.h"
 
 namespace iapsim::control {
 namespace {
 
-constexpr double kGravity = 9.81;
-constexpr double kPhysicsStep_s = 0.001;
-constexpr int kStepsPerControl = 5;  // 200 Hz
+using testing::kGravity;
+using testing::kPhysicsStep_s;
+using testing::kStepsPerControl;
 constexpr double kControlStep_s = kStepsPerControl * kPhysicsStep_s;
 
 // The three-star IAP with its 1 m pole along −x at (0, 0, −2), optionally facing a wall.
 class PoleIap {
  public:
   explicit PoleIap(const std::vector<physics::WorldObject>& objects = {})
-      : vehicle_(model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star_pole.yaml")),
+      : vehicle_(testing::LoadTestVehicle("three_star_pole")),
         filter_(sensors::WrenchFilterConfig(), kPhysicsStep_s) {
-    physics::SimulationConfig world;
-    world.step_s = kPhysicsStep_s;
-    world.world.ground = false;
-    world.world.gravity_mps2 = kGravity;
-    world.world.objects = objects;
-    physics::VehicleSpec spec;
-    spec.name = vehicle_.name;
-    spec.vehicle = vehicle_;
-    spec.description = model::ParseUrdf(model::GenerateUrdf(vehicle_), vehicle_.name + ".urdf");
-    spec.p_WP_m = Eigen::Vector3d(0, 0, -2);
-    world.vehicles.push_back(spec);
-    sim_ = std::make_unique<physics::Simulation>(world);
+    sim_ = testing::MakeSimulation(vehicle_, Eigen::Vector3d(0, 0, -2), objects);
   }
 
   const model::Vehicle& vehicle() const { return vehicle_; }
 
-  PlatformState State() const {
-    const physics::BodyState& body = sim_->world().body(sim_->output(0).platform_body);
-    PlatformState state;
-    state.p_WP_m = body.p_WB_m;
-    state.q_WP = body.q_WB;
-    state.v_WP_P_mps = body.q_WB.conjugate() * body.v_WB_W;
-    state.w_WP_P_radps = body.q_WB.conjugate() * body.w_WB_W;
-    return state;
-  }
+  PlatformState State() const { return testing::PlatformStateOf(*sim_); }
 
   /// The contact wrench on the platform through the §VI-E low-pass, in P about its origin.
   const Vector6d& filtered_wrench_P() const { return filtered_P_; }
@@ -129,17 +110,19 @@ TEST(Interaction, DirectWrenchControlPushesAWallWithTheCommandedWrench) {
   }
   mean_P /= samples;
   pose_error /= samples;
-  std::printf("wall push: engaged at %.2f s; mean wrench over the last %.0f s (P): force [%.3f %.3f %.3f] N, "
-              "torque [%.3f %.3f %.3f] N·m; commanded [1.5 4 0] N, [0 0 -4] N·m\n",
-              engaged_at_s, duration_s - average_from_s, mean_P[0], mean_P[1], mean_P[2], mean_P[3], mean_P[4],
-              mean_P[5]);
-  std::printf("           pose error: [%.3f %.3f %.3f] m, rotation vector [%.2f %.2f %.2f] deg; max raw contact "
-              "force %.2f N; wrench integral [%.2f %.2f %.2f %.2f %.2f %.2f]\n",
-              pose_error[0], pose_error[1], pose_error[2], pose_error[3] * 180 / M_PI, pose_error[4] * 180 / M_PI,
-              pose_error[5] * 180 / M_PI, iap.max_raw_force_N(), controller.wrench_pid().integral_term()[0],
-              controller.wrench_pid().integral_term()[1], controller.wrench_pid().integral_term()[2],
-              controller.wrench_pid().integral_term()[3], controller.wrench_pid().integral_term()[4],
-              controller.wrench_pid().integral_term()[5]);
+  std::printf(
+      "wall push: engaged at %.2f s; mean wrench over the last %.0f s (P): force [%.3f %.3f %.3f] N, "
+      "torque [%.3f %.3f %.3f] N·m; commanded [1.5 4 0] N, [0 0 -4] N·m\n",
+      engaged_at_s, duration_s - average_from_s, mean_P[0], mean_P[1], mean_P[2], mean_P[3], mean_P[4],
+      mean_P[5]);
+  std::printf(
+      "           pose error: [%.3f %.3f %.3f] m, rotation vector [%.2f %.2f %.2f] deg; max raw contact "
+      "force %.2f N; wrench integral [%.2f %.2f %.2f %.2f %.2f %.2f]\n",
+      pose_error[0], pose_error[1], pose_error[2], pose_error[3] * 180 / M_PI, pose_error[4] * 180 / M_PI,
+      pose_error[5] * 180 / M_PI, iap.max_raw_force_N(), controller.wrench_pid().integral_term()[0],
+      controller.wrench_pid().integral_term()[1], controller.wrench_pid().integral_term()[2],
+      controller.wrench_pid().integral_term()[3], controller.wrench_pid().integral_term()[4],
+      controller.wrench_pid().integral_term()[5]);
   ASSERT_GT(engaged_at_s, 0.0);
   // the axes the contact carries: normal force, friction along y, and the yaw moment of the tip force
   EXPECT_NEAR(mean_P[0], 1.5, 0.15);
@@ -147,8 +130,6 @@ TEST(Interaction, DirectWrenchControlPushesAWallWithTheCommandedWrench) {
   EXPECT_NEAR(mean_P[5], -4.0, 0.4);
   EXPECT_EQ(controller.active_controller().rejected_updates(), 0u);
 }
-
-
 
 TEST(Interaction, AdmittanceMovesTheReferenceByForceOverStiffness) {
   PoleIap iap;
@@ -168,11 +149,13 @@ TEST(Interaction, AdmittanceMovesTheReferenceByForceOverStiffness) {
   }
   const Eigen::Vector3d expected_m = nominal.p_WP_m + push_W_N / 100.0;  // K_e = 100 N/m (Table IV)
   const Eigen::Vector3d reached_m = iap.State().p_WP_m;
-  std::printf("admittance: reference moved by [%.4f %.4f %.4f] m, the IAP by [%.4f %.4f %.4f] m (F/K: [%.3f %.3f 0])\n",
-              revised.p_WP_m.x() - nominal.p_WP_m.x(), revised.p_WP_m.y() - nominal.p_WP_m.y(),
-              revised.p_WP_m.z() - nominal.p_WP_m.z(), reached_m.x() - nominal.p_WP_m.x(),
-              reached_m.y() - nominal.p_WP_m.y(), reached_m.z() - nominal.p_WP_m.z(), push_W_N.x() / 100,
-              push_W_N.y() / 100);
+  std::printf(
+      "admittance: reference moved by [%.4f %.4f %.4f] m, the IAP by [%.4f %.4f %.4f] m (F/K: [%.3f %.3f "
+      "0])\n",
+      revised.p_WP_m.x() - nominal.p_WP_m.x(), revised.p_WP_m.y() - nominal.p_WP_m.y(),
+      revised.p_WP_m.z() - nominal.p_WP_m.z(), reached_m.x() - nominal.p_WP_m.x(),
+      reached_m.y() - nominal.p_WP_m.y(), reached_m.z() - nominal.p_WP_m.z(), push_W_N.x() / 100,
+      push_W_N.y() / 100);
   EXPECT_LT((revised.p_WP_m - expected_m).norm(), 1e-6);
   EXPECT_LT((reached_m - expected_m).norm(), 0.005);
 }
