@@ -61,4 +61,12 @@ using ProcessFactory =
 /// 2 bad configuration.
 int ProcessMain(int argc, char** argv, const std::string& description, const ProcessFactory& factory);
 
+/// ProcessMain for a process class constructed as T(const ProcessContext&, YamlMap& params).
+template <class T>
+int ProcessMainFor(int argc, char** argv, const std::string& description) {
+  return ProcessMain(argc, argv, description, [](const ProcessContext& context, YamlMap& params) {
+    return std::unique_ptr<Process>(std::make_unique<T>(context, params));
+  });
+}
+
 }  // namespace iapsim::bridge

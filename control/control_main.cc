@@ -14,9 +14,8 @@
 //                 collective thrust and an attitude from (18) with the sub-aircraft's initial yaw.
 //
 //   subscribes  /<vehicle>/state      iapsim_msgs/IapState
-//               reference.topic       geometry_msgs/PoseStamped or iapsim_msgs/Setpoint (track with
-//               reference) wrench_topic          geometry_msgs/WrenchStamped, in P about its origin
-//               (interaction)
+//               reference.topic       PoseStamped or iapsim_msgs/Setpoint (track with a reference)
+//               wrench_topic          geometry_msgs/WrenchStamped, in P about its origin (interaction)
 //   publishes   /<vehicle>/cmd        iapsim_msgs/IapCommand (stamped with the state it answers)
 //               /<vehicle>/setpoint   iapsim_msgs/Setpoint   (track: the reference of that command)
 //               /<vehicle>/wrench/command  geometry_msgs/WrenchStamped (track: U, in P about its origin)
@@ -291,9 +290,6 @@ class ControlNode : public bridge::Process {
 }  // namespace iapsim::control
 
 int main(int argc, char** argv) {
-  return iapsim::bridge::ProcessMain(
-      argc, argv, "iapsim control: per-sub-aircraft commands from the vehicle state",
-      [](const iapsim::bridge::ProcessContext& context, iapsim::bridge::YamlMap& params) {
-        return std::make_unique<iapsim::control::ControlNode>(context, params);
-      });
+  return iapsim::bridge::ProcessMainFor<iapsim::control::ControlNode>(
+      argc, argv, "iapsim control: per-sub-aircraft commands from the vehicle state");
 }

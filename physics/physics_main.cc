@@ -319,9 +319,7 @@ class PhysicsNode : public bridge::Process {
 }  // namespace iapsim::physics
 
 int main(int argc, char** argv) {
-  return iapsim::bridge::ProcessMain(
-      argc, argv, "iapsim physics: IAPs as Bullet multibodies with rotors and flight controllers; owns the clock",
-      [](const iapsim::bridge::ProcessContext& context, iapsim::bridge::YamlMap& params) {
-        return std::make_unique<iapsim::physics::PhysicsNode>(context, params);
-      });
+  return iapsim::bridge::ProcessMainFor<iapsim::physics::PhysicsNode>(
+      argc, argv,
+      "iapsim physics: IAPs as Bullet multibodies with rotors and flight controllers; owns the clock");
 }

@@ -217,9 +217,6 @@ class SensorsNode : public bridge::Process {
 }  // namespace iapsim::sensors
 
 int main(int argc, char** argv) {
-  return iapsim::bridge::ProcessMain(
-      argc, argv, "iapsim sensors: IMU, attitude estimate, UWB and filtered wrench from the vehicle state",
-      [](const iapsim::bridge::ProcessContext& context, iapsim::bridge::YamlMap& params) {
-        return std::make_unique<iapsim::sensors::SensorsNode>(context, params);
-      });
+  return iapsim::bridge::ProcessMainFor<iapsim::sensors::SensorsNode>(
+      argc, argv, "iapsim sensors: IMU, attitude estimate, UWB and filtered wrench from the vehicle state");
 }

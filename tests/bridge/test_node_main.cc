@@ -192,9 +192,6 @@ class TestNode : public Process {
 }  // namespace iapsim::bridge
 
 int main(int argc, char** argv) {
-  return iapsim::bridge::ProcessMain(
-      argc, argv, "iapsim test node (clock, controller or sensor) for multi-process tests",
-      [](const iapsim::bridge::ProcessContext& context, iapsim::bridge::YamlMap& params) {
-        return std::make_unique<iapsim::bridge::TestNode>(context, params);
-      });
+  return iapsim::bridge::ProcessMainFor<iapsim::bridge::TestNode>(
+      argc, argv, "iapsim test node (clock, controller or sensor) for multi-process tests");
 }
