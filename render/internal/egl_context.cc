@@ -43,11 +43,14 @@ class EglContext final : public GlContext {
       throw std::runtime_error("EGL: no display (no device and no surfaceless platform)");
     }
     if (!eglBindAPI(EGL_OPENGL_API)) throw std::runtime_error("EGL: the display has no desktop OpenGL");
-    const EGLint config_attributes[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
-    EGLConfig config = nullptr;
+    // the default surface type (window) has no config on a surfaceless display: ask for pbuffers, else
+    // make the context without a config (EGL_KHR_no_config_context)
+    const EGLint config_attributes[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RENDERABLE_TYPE,
+                                        EGL_OPENGL_BIT, EGL_NONE};
+    EGLConfig config = EGL_NO_CONFIG_KHR;
     EGLint count = 0;
     if (!eglChooseConfig(display_, config_attributes, &config, 1, &count) || count == 0) {
-      throw std::runtime_error("EGL: no OpenGL config");
+      config = EGL_NO_CONFIG_KHR;
     }
     const EGLint context_attributes[] = {EGL_CONTEXT_MAJOR_VERSION,
                                          3,
