@@ -33,6 +33,9 @@ std::vector<std::uint8_t> EncodePng(const Image& image, int compression = 1);
 /// 16-bit PNG of a depth image in millimetres (0 where there is no depth or beyond 65.535 m), the
 /// 16UC1 encoding of ROS depth images.
 std::vector<std::uint8_t> EncodeDepthPng_mm(const DepthImage& depth, int compression = 1);
+/// The inverse of EncodeDepthPng_mm: metres, +infinity where the PNG holds 0. Throws std::invalid_argument
+/// naming `what` when the bytes are not a 16-bit single-channel image.
+DepthImage DecodeDepthPng_mm(const std::vector<std::uint8_t>& bytes, const std::string& what);
 /// Decodes PNG (or any format OpenCV reads) bytes into RGB; throws std::invalid_argument naming `what`.
 Image DecodeImage(const std::vector<std::uint8_t>& bytes, const std::string& what);
 /// Reads an image file into RGB; throws std::invalid_argument naming the file when it cannot.

@@ -41,6 +41,13 @@ std::string WriteTexturedObj(const std::string& dir, const std::string& texture)
                "usemtl painted\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n");
 }
 
+SceneObject Object(const std::string& name, int mesh) {
+  SceneObject object;
+  object.name = name;
+  object.mesh = mesh;
+  return object;
+}
+
 // the exception message of `f`, or "" when it throws nothing
 template <class F>
 std::string ErrorOf(F f) {
@@ -77,7 +84,7 @@ TEST(MeshFile, ObjWithMaterialAndTextureIsDrawnTextured) {
   scene.sun.intensity = 0.0f;
   scene.ambient_intensity = 1.0f;
   scene.sun.shadows = false;
-  scene.AddObject(SceneObject{"quad", mesh});
+  scene.AddObject(Object("quad", mesh));
   std::unique_ptr<Renderer> renderer = MakeRenderer();
   renderer->SetScene(scene);
   Camera camera;
@@ -116,8 +123,8 @@ TEST(MeshFile, StlAndGltfLoad) {
   const MeshPart& part = scene.meshes[triangle].parts.at(0);
   ASSERT_EQ(part.positions_O_m.size(), 3u);
   EXPECT_TRUE(part.positions_O_m[1].isApprox(Eigen::Vector3f(1, 0, 0)));
-  scene.AddObject(SceneObject{"stl", stl});
-  scene.AddObject(SceneObject{"gltf", triangle});
+  scene.AddObject(Object("stl", stl));
+  scene.AddObject(Object("gltf", triangle));
   EXPECT_NO_THROW(scene.Validate());
 }
 
