@@ -81,13 +81,13 @@ int main(int argc, char** argv) {
   std::string bench_what = "all";
   std::string bench_json;
   std::string bench_vehicle = "configs/vehicles/three_star.yaml";
-  std::string bench_scene = "configs/scenes/textured_walls.yaml";
+  std::string bench_scene = "configs/scenes/buildings.yaml";
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
   bench_cmd->add_option("what", bench_what, "bus, physics, render or all")
       ->check(CLI::IsMember({"bus", "physics", "render", "all"}));
   bench_cmd->add_option("--vehicle", bench_vehicle,
                         "physics, render: the vehicle to measure (default the three-star)");
-  bench_cmd->add_option("--scene", bench_scene, "render: the scene (default configs/scenes/textured_walls.yaml)");
+  bench_cmd->add_option("--scene", bench_scene, "render: the scene (default configs/scenes/buildings.yaml)");
   bench_cmd->add_option("--json", bench_json, "also write the figures to this JSON file");
 
   CLI11_PARSE(app, argc, argv);
