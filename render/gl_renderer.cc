@@ -137,13 +137,8 @@ class Program {
     gl_.LinkProgram(id_);
     gl_.DeleteShader(vs);
     gl_.DeleteShader(fs);
-    GLint ok = 0;
-    gl_.GetProgramiv(id_, GL_LINK_STATUS, &ok);
-    if (!ok) {
-      char log[2048] = {};
-      gl_.GetProgramInfoLog(id_, sizeof(log), nullptr, log);
-      throw std::runtime_error(std::string("OpenGL: the ") + name + " program does not link: " + log);
-    }
+    ThrowUnless(gl_.GetProgramiv, gl_.GetProgramInfoLog, id_, GL_LINK_STATUS,
+                std::string("the ") + name + " program does not link");
   }
   ~Program() { gl_.DeleteProgram(id_); }
   Program(const Program&) = delete;
@@ -172,15 +167,20 @@ class Program {
     const GLuint shader = gl_.CreateShader(stage);
     gl_.ShaderSource(shader, 1, &source, nullptr);
     gl_.CompileShader(shader);
-    GLint ok = 0;
-    gl_.GetShaderiv(shader, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-      char log[2048] = {};
-      gl_.GetShaderInfoLog(shader, sizeof(log), nullptr, log);
-      gl_.DeleteShader(shader);
-      throw std::runtime_error(std::string("OpenGL: a ") + name + " shader does not compile: " + log);
-    }
+    ThrowUnless(gl_.GetShaderiv, gl_.GetShaderInfoLog, shader, GL_COMPILE_STATUS,
+                std::string("a ") + name + " shader does not compile");
     return shader;
+  }
+
+  // a shader's compile or a program's link status, with the driver's log in the exception
+  template <class GetIv, class GetLog>
+  static void ThrowUnless(GetIv get_iv, GetLog get_log, GLuint id, GLenum status, const std::string& what) {
+    GLint ok = 0;
+    get_iv(id, status, &ok);
+    if (ok) return;
+    char log[2048] = {};
+    get_log(id, sizeof(log), nullptr, log);
+    throw std::runtime_error("OpenGL: " + what + ": " + log);
   }
 
   const GlFunctions& gl_;

@@ -71,25 +71,17 @@ void AddDisc(Mesh* mesh, float radius, float z, float normal_z, int segments) {
 
 }  // namespace
 
-int Scene::AddTexture(TextureImage texture) {
-  textures.push_back(std::move(texture));
-  return static_cast<int>(textures.size()) - 1;
+// appends and returns the new element's index
+template <class T>
+int Append(std::vector<T>* list, T value) {
+  list->push_back(std::move(value));
+  return static_cast<int>(list->size()) - 1;
 }
 
-int Scene::AddMaterial(const Material& material) {
-  materials.push_back(material);
-  return static_cast<int>(materials.size()) - 1;
-}
-
-int Scene::AddMesh(Mesh mesh) {
-  meshes.push_back(std::move(mesh));
-  return static_cast<int>(meshes.size()) - 1;
-}
-
-int Scene::AddObject(const SceneObject& object) {
-  objects.push_back(object);
-  return static_cast<int>(objects.size()) - 1;
-}
+int Scene::AddTexture(TextureImage texture) { return Append(&textures, std::move(texture)); }
+int Scene::AddMaterial(const Material& material) { return Append(&materials, material); }
+int Scene::AddMesh(Mesh mesh) { return Append(&meshes, std::move(mesh)); }
+int Scene::AddObject(const SceneObject& object) { return Append(&objects, object); }
 
 std::vector<std::string> Scene::Bodies() const {
   std::set<std::string> bodies;

@@ -133,7 +133,7 @@ int BenchRender(const std::string& scene_path, const std::string& vehicle_path, 
               scene.sun.shadows ? "on" : "off", scene.fog.density_per_m);
   std::printf("  vehicle %s flying a 6 m circle, llvmpipe threads %s, %.0f s per figure\n\n",
               vehicle.name.c_str(), thread_text.c_str(), kSecondsPerFigure);
-  std::printf("  %-34s %10s %10s %12s %12s %9s\n", "cameras", "frames/s", "images/s", "frame p50 ms",
+  std::printf("  %-40s %10s %10s %12s %12s %9s\n", "cameras", "frames/s", "images/s", "frame p50 ms",
               "frame p95 ms", "PNG KiB");
   nlohmann::json& out = (*report)["render"];
   out["renderer"] = renderer->Description();
@@ -151,7 +151,7 @@ int BenchRender(const std::string& scene_path, const std::string& vehicle_path, 
       const std::string label =
           std::string(key == std::string("one_camera") ? "1 camera" : "3 stereo pairs (6 images)") +
           (encode ? ", render + PNG" : ", render only");
-      std::printf("  %-34s %10.1f %10.1f %12.1f %12.1f %9.0f\n", label.c_str(), f.frames_per_s,
+      std::printf("  %-40s %10.1f %10.1f %12.1f %12.1f %9.0f\n", label.c_str(), f.frames_per_s,
                   f.images_per_s, f.frame_ms_p50, f.frame_ms_p95, f.png_kib);
       out[key][encode ? "render_png" : "render_only"] = ToJson(f);
     }
