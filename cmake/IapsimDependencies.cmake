@@ -42,3 +42,19 @@ target_include_directories(iapsim_rosbag SYSTEM INTERFACE /usr/include/pluginlib
 target_link_libraries(iapsim_rosbag INTERFACE ${ROSBAG_STORAGE_LIB} ${ROSLZ4_LIB} ${CONSOLE_BRIDGE_LIB}
                                              Boost::filesystem Boost::system iapsim_ros_serialization)
 add_library(iapsim::rosbag ALIAS iapsim_rosbag)
+
+# rendering (render/): OSMesa always (headless llvmpipe), EGL behind IAPSIM_RENDER_EGL; GL entry points are
+# loaded through the context's GetProcAddress, so nothing links libGL/libOpenGL (linking -lOpenGL before
+# -lOSMesa kills every GL call, see shared NOTES).
+pkg_check_modules(OSMESA REQUIRED IMPORTED_TARGET osmesa)
+pkg_check_modules(LIBPNG REQUIRED IMPORTED_TARGET libpng)
+# Debian's split OpenCV packages (core, imgproc, imgcodecs, videoio) ship no OpenCVConfig.cmake: find the
+# four libraries directly. Used for PNG encode/decode and video, never in a public header.
+find_path(OPENCV_INCLUDE_DIR opencv2/core.hpp PATH_SUFFIXES opencv4 REQUIRED)
+add_library(iapsim_opencv INTERFACE)
+target_include_directories(iapsim_opencv SYSTEM INTERFACE ${OPENCV_INCLUDE_DIR})
+foreach(module core imgproc imgcodecs videoio)
+  iapsim_find_library(OPENCV_${module}_LIB opencv_${module})
+  target_link_libraries(iapsim_opencv INTERFACE ${OPENCV_${module}_LIB})
+endforeach()
+add_library(iapsim::opencv ALIAS iapsim_opencv)

@@ -70,7 +70,13 @@ int BenchBus(nlohmann::json* report);
 /// a bare Bullet multibody of the same size as the baseline of each.
 int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report);
 
-/// Runs the benchmarks named by `what` (bus, physics or all); writes every figure to `json_path` if set.
-int Bench(const std::string& what, const std::string& vehicle_path, const std::string& json_path);
+/// Images/s at 640x480 on the CPU (OSMesa) in `scene_path` with the vehicle flying through it: one camera and
+/// three stereo pairs (six images a frame), render only and render + PNG encode, with frame latencies.
+int BenchRender(const std::string& scene_path, const std::string& vehicle_path, nlohmann::json* report);
+
+/// Runs the benchmarks named by `what` (bus, physics, render or all); writes every figure to `json_path` if
+/// set.
+int Bench(const std::string& what, const std::string& vehicle_path, const std::string& scene_path,
+          const std::string& json_path);
 
 }  // namespace iapsim::tools

@@ -81,10 +81,13 @@ int main(int argc, char** argv) {
   std::string bench_what = "all";
   std::string bench_json;
   std::string bench_vehicle = "configs/vehicles/three_star.yaml";
+  std::string bench_scene = "configs/scenes/buildings.yaml";
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
-  bench_cmd->add_option("what", bench_what, "bus, physics or all")
-      ->check(CLI::IsMember({"bus", "physics", "all"}));
-  bench_cmd->add_option("--vehicle", bench_vehicle, "physics: the vehicle to measure (default the three-star)");
+  bench_cmd->add_option("what", bench_what, "bus, physics, render or all")
+      ->check(CLI::IsMember({"bus", "physics", "render", "all"}));
+  bench_cmd->add_option("--vehicle", bench_vehicle,
+                        "physics, render: the vehicle to measure (default the three-star)");
+  bench_cmd->add_option("--scene", bench_scene, "render: the scene (default configs/scenes/buildings.yaml)");
   bench_cmd->add_option("--json", bench_json, "also write the figures to this JSON file");
 
   CLI11_PARSE(app, argc, argv);
@@ -98,7 +101,7 @@ int main(int argc, char** argv) {
     if (*topics_cmd) return Topics(topics);
     if (*echo_cmd) return Echo(echo);
     if (*urdf_cmd) return Urdf(urdf_vehicle, urdf_output);
-    if (*bench_cmd) return Bench(bench_what, bench_vehicle, bench_json);
+    if (*bench_cmd) return Bench(bench_what, bench_vehicle, bench_scene, bench_json);
   } catch (const std::exception& e) {
     std::cerr << "iapsim: " << e.what() << std::endl;
     return 1;

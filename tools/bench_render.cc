@@ -1,0 +1,165 @@
+// iapsim bench render: images per second at 640x480 on the CPU (OSMesa, llvmpipe) in a stated scene with the
+// three-star IAP flying through it: one camera, and the seed's three stereo pairs (six images a frame,
+// §VI-G); render only (draw + read back) and render + PNG encode (what the render process publishes). The IAP
+// moves every frame, so every frame redraws the sun's shadow map too, as a flight does.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "bridge/config.h"
+#include "model/vehicle.h"
+#include "render/camera_rig.h"
+#include "render/renderer.h"
+#include "render/scene_config.h"
+#include "render/vehicle_visual.h"
+#include "tools/commands.h"
+
+namespace iapsim::tools {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kSecondsPerFigure = 2.0;
+
+// The seed's rig per sub-aircraft: 640x480, 90° horizontal field of view, 12 cm baseline, 19.8 cm ahead.
+render::CameraConfig SubAircraftCamera(const std::string& body, double baseline_m) {
+  bridge::YamlMap map(YAML::Load("cameras: [{name: cam, body: " + body +
+                                 ", position_m: [0.198, 0, 0], width: 640, height: 480, hfov_deg: 90, "
+                                 "rate_hz: 20, baseline_m: " +
+                                 std::to_string(baseline_m) + "}]"),
+                      "bench");
+  return render::ReadCameras(map, "cameras").at(0);
+}
+
+struct Flight {
+  const model::Vehicle* vehicle;
+  render::Renderer* renderer;
+  // a 6 m circle at 2 m height, 1/20 s a frame: the view changes every frame
+  Eigen::Isometry3d Platform(int frame) const {
+    const double angle = 0.05 * frame * 0.5;
+    return Eigen::Isometry3d(Eigen::Translation3d(6.0 * std::cos(angle), 6.0 * std::sin(angle), -2.0) *
+                             Eigen::AngleAxisd(angle + M_PI / 2.0, Eigen::Vector3d::UnitZ()));
+  }
+  Eigen::Isometry3d SubAircraft(int frame, const model::SubAircraft& sub) const {
+    return Platform(frame) * Eigen::Translation3d(sub.joint_P_m) *
+           Eigen::AngleAxisd(sub.initial_yaw_rad, Eigen::Vector3d::UnitZ());
+  }
+  void Pose(int frame) const {
+    renderer->SetBodyPose(renderer->BodyIndex(render::PlatformBody("iap")), Platform(frame));
+    for (const model::SubAircraft& sub : vehicle->sub_aircraft) {
+      renderer->SetBodyPose(renderer->BodyIndex(render::SubAircraftBody("iap", sub)),
+                            SubAircraft(frame, sub));
+    }
+  }
+};
+
+struct Figure {
+  double frames_per_s = 0.0;
+  double images_per_s = 0.0;
+  double frame_ms_p50 = 0.0;  // latency of a whole frame (every camera), state to last image
+  double frame_ms_p95 = 0.0;
+  double png_kib = 0.0;  // mean PNG size
+};
+
+Figure Measure(const Flight& flight, const std::vector<render::CameraConfig>& cameras, bool encode) {
+  render::Image image;
+  std::vector<double> frame_ms;
+  double png_bytes = 0.0;
+  int images = 0;
+  const Clock::time_point start = Clock::now();
+  int frame = 0;
+  while (std::chrono::duration<double>(Clock::now() - start).count() < kSecondsPerFigure) {
+    const Clock::time_point frame_start = Clock::now();
+    flight.Pose(frame);
+    for (const render::CameraConfig& camera : cameras) {
+      const model::SubAircraft& sub = flight.vehicle->sub_aircraft[&camera - cameras.data()];
+      for (const Eigen::Isometry3d& X_WC : render::CameraPoses_W(camera, flight.SubAircraft(frame, sub))) {
+        flight.renderer->Render(camera.camera, X_WC, &image, nullptr);
+        if (encode) png_bytes += render::EncodePng(image).size();
+        ++images;
+      }
+    }
+    frame_ms.push_back(1e3 * std::chrono::duration<double>(Clock::now() - frame_start).count());
+    ++frame;
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  std::sort(frame_ms.begin(), frame_ms.end());
+  Figure figure;
+  figure.frames_per_s = frame / seconds;
+  figure.images_per_s = images / seconds;
+  figure.frame_ms_p50 = frame_ms[frame_ms.size() / 2];
+  figure.frame_ms_p95 = frame_ms[std::min(frame_ms.size() - 1, frame_ms.size() * 95 / 100)];
+  figure.png_kib = encode ? png_bytes / images / 1024.0 : 0.0;
+  return figure;
+}
+
+nlohmann::json ToJson(const Figure& f) {
+  return {{"frames_per_s", f.frames_per_s},
+          {"images_per_s", f.images_per_s},
+          {"frame_ms_p50", f.frame_ms_p50},
+          {"frame_ms_p95", f.frame_ms_p95},
+          {"png_kib", f.png_kib}};
+}
+
+}  // namespace
+
+int BenchRender(const std::string& scene_path, const std::string& vehicle_path, nlohmann::json* report) {
+  render::Scene scene = render::LoadScene(scene_path);
+  const model::Vehicle vehicle = model::LoadVehicle(vehicle_path);
+  render::AddVehicle(&scene, vehicle, "iap");
+  std::size_t triangles = 0;
+  for (const render::SceneObject& object : scene.objects) {
+    for (const render::MeshPart& part : scene.meshes[object.mesh].parts) triangles += part.indices.size() / 3;
+  }
+  const std::unique_ptr<render::Renderer> renderer = render::MakeRenderer();
+  renderer->SetScene(scene);
+  const Flight flight{&vehicle, renderer.get()};
+
+  std::vector<render::CameraConfig> one{SubAircraftCamera("iap/sub1", 0.0)};
+  std::vector<render::CameraConfig> stereo;
+  for (const model::SubAircraft& sub : vehicle.sub_aircraft)
+    stereo.push_back(SubAircraftCamera("iap/" + sub.name, 0.12));
+  const char* threads = std::getenv("LP_NUM_THREADS");
+  const std::string thread_text =
+      threads ? threads : std::to_string(std::thread::hardware_concurrency()) + " (default)";
+
+  std::printf("render at 640x480, %s\n", renderer->Description().c_str());
+  std::printf("  scene %s (%s): %zu objects, %zu triangles with the IAP, shadows %s, fog %.3g /m\n",
+              scene.name.c_str(), scene_path.c_str(), scene.objects.size(), triangles,
+              scene.sun.shadows ? "on" : "off", scene.fog.density_per_m);
+  std::printf("  vehicle %s flying a 6 m circle, llvmpipe threads %s, %.0f s per figure\n\n",
+              vehicle.name.c_str(), thread_text.c_str(), kSecondsPerFigure);
+  std::printf("  %-40s %10s %10s %12s %12s %9s\n", "cameras", "frames/s", "images/s", "frame p50 ms",
+              "frame p95 ms", "PNG KiB");
+  nlohmann::json& out = (*report)["render"];
+  out["renderer"] = renderer->Description();
+  out["scene"] = scene_path;
+  out["triangles"] = triangles;
+  out["vehicle"] = vehicle.name;
+  out["llvmpipe_threads"] = thread_text;
+  out["width"] = 640;
+  out["height"] = 480;
+  const std::pair<const char*, const std::vector<render::CameraConfig>*> sets[] = {
+      {"one_camera", &one}, {"three_stereo_pairs", &stereo}};
+  for (const auto& [key, cameras] : sets) {
+    for (const bool encode : {false, true}) {
+      const Figure f = Measure(flight, *cameras, encode);
+      const std::string label =
+          std::string(key == std::string("one_camera") ? "1 camera" : "3 stereo pairs (6 images)") +
+          (encode ? ", render + PNG" : ", render only");
+      std::printf("  %-40s %10.1f %10.1f %12.1f %12.1f %9.0f\n", label.c_str(), f.frames_per_s,
+                  f.images_per_s, f.frame_ms_p50, f.frame_ms_p95, f.png_kib);
+      out[key][encode ? "render_png" : "render_only"] = ToJson(f);
+    }
+  }
+  const double six_hz = out["three_stereo_pairs"]["render_png"]["frames_per_s"].get<double>();
+  std::printf("\n  six images a frame with PNG: %.1f Hz (target >= 10 Hz on the CPU): %s\n", six_hz,
+              six_hz >= 10.0 ? "met" : "NOT met");
+  return 0;
+}
+
+}  // namespace iapsim::tools
