@@ -11,11 +11,12 @@
 namespace iapsim::bridge {
 namespace {
 
-constexpr uint8_t kWireVersion = 1;
+constexpr uint8_t kWireVersion = 2;
 constexpr char kHelloTopic[] = "/iapsim/hello";
 constexpr char kConfirmTopic[] = "/iapsim/hello_confirm";
 
-// meta frame: u8 version | u64 sequence | u16 n + datatype | 32 md5 chars | u16 n + publisher
+// meta frame: u8 version | u64 sequence | i64 sent_unix_ns | u16 n + datatype | 32 md5 chars | u16 n +
+// publisher
 void AppendU16String(std::string* out, const std::string& s) {
   const uint16_t n = static_cast<uint16_t>(s.size());
   out->append(reinterpret_cast<const char*>(&n), 2);
@@ -35,6 +36,7 @@ bool ReadU16String(const uint8_t*& p, const uint8_t* end, std::string* s) {
 
 struct Meta {
   uint64_t sequence = 0;
+  int64_t sent_unix_ns = 0;
   std::string datatype;
   std::string md5;
   std::string publisher;
@@ -43,9 +45,10 @@ struct Meta {
 bool ParseMeta(const zmq::message_t& frame, Meta* meta) {
   auto p = static_cast<const uint8_t*>(frame.data());
   const uint8_t* end = p + frame.size();
-  if (end - p < 9 || p[0] != kWireVersion) return false;
+  if (end - p < 17 || p[0] != kWireVersion) return false;
   std::memcpy(&meta->sequence, p + 1, 8);
-  p += 9;
+  std::memcpy(&meta->sent_unix_ns, p + 9, 8);
+  p += 17;
   if (!ReadU16String(p, end, &meta->datatype)) return false;
   if (end - p < 32) return false;
   meta->md5.assign(reinterpret_cast<const char*>(p), 32);
@@ -117,6 +120,12 @@ Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
 
 Bus::~Bus() = default;
 
+int64_t UnixTimeNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
 const std::string& Bus::node_name() const { return impl_->options.node_name; }
 
 std::string Bus::bound_endpoint() const { return impl_->publisher.get(zmq::sockopt::last_endpoint); }
@@ -130,6 +139,8 @@ void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8
   meta.clear();
   meta.push_back(static_cast<char>(kWireVersion));
   meta.append(reinterpret_cast<const char*>(&sequence), 8);
+  const int64_t sent_unix_ns = UnixTimeNs();
+  meta.append(reinterpret_cast<const char*>(&sent_unix_ns), 8);
   AppendU16String(&meta, type.datatype);
   meta.append(type.md5);
   AppendU16String(&meta, impl.options.node_name);
@@ -220,7 +231,7 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
     if (meta.sequence > it->second) counters.lost += meta.sequence - it->second;
     it->second = meta.sequence + 1;
 
-    const MessageInfo info{topic, meta.datatype, meta.md5, meta.publisher, meta.sequence};
+    const MessageInfo info{topic, meta.datatype, meta.md5, meta.publisher, meta.sequence, meta.sent_unix_ns};
     const auto* data = static_cast<const uint8_t*>(payload.data());
     for (const auto& sub : impl.subscriptions) {
       const bool match = sub.exact ? sub.topic == topic : topic.compare(0, sub.topic.size(), sub.topic) == 0;

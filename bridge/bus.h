@@ -5,7 +5,8 @@
 // peers. All of a node's topics leave through that one publisher, so the messages of one node reach a
 // subscriber in the order they were sent, across topics (the lockstep protocol relies on it).
 //
-// Frames on the wire: [topic '\0'] [meta: version, per-topic sequence, datatype, md5, publisher] [payload].
+// Frames on the wire: [topic '\0'] [meta: version, per-topic sequence, send time, datatype, md5, publisher]
+// [payload].
 //
 // Queues and drops: each connection queues up to `send_hwm` messages at the publisher and `receive_hwm` at
 // the subscriber. When a subscriber's queue is full:
@@ -64,8 +65,13 @@ struct MessageInfo {
   const std::string& datatype;
   const std::string& md5;
   const std::string& publisher;
-  uint64_t sequence;  // per topic and publisher, starting at 0
+  uint64_t sequence;     // per topic and publisher, starting at 0
+  int64_t sent_unix_ns;  // the publisher's wall clock (UnixTimeNs) when it sent the message
 };
+
+/// Wall-clock time (CLOCK_REALTIME, ns since the Unix epoch): comparable between processes, and between
+/// hosts as far as their clocks are synchronised. For latencies, never for simulated time.
+int64_t UnixTimeNs();
 
 class Bus {
  public:

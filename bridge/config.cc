@@ -1,6 +1,7 @@
 #include "bridge/config.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -172,6 +173,12 @@ void ApplyOverride(YAML::Node root, const std::string& assignment, const std::st
     chain.push_back(next);
   }
   chain.back()[keys.back()] = value;
+}
+
+uint64_t StepsPerPeriod(double rate_hz, double step_s) {
+  const double period_steps = 1.0 / (rate_hz * step_s);
+  if (!(period_steps >= 1.0 - 1e-9) || std::fabs(period_steps - std::round(period_steps)) > 1e-6) return 0;
+  return static_cast<uint64_t>(std::llround(period_steps));
 }
 
 std::string ReadFilePath(YamlMap& map, const std::string& key, const std::string& relative_to) {

@@ -5,6 +5,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstdint>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -106,6 +107,10 @@ class YamlMap {
 /// `relative_to` (the scenario file), or to the working folder. Records the absolute path as the resolved
 /// value (so a run restarts from its scenario.resolved.yaml) and returns it; fails naming the key.
 std::string ReadFilePath(YamlMap& map, const std::string& key, const std::string& relative_to);
+
+/// How many steps of `step_s` one period of `rate_hz` spans; 0 when that is not a whole number of at least
+/// one (a rate that does not divide the step's rate).
+uint64_t StepsPerPeriod(double rate_hz, double step_s);
 
 /// Loads a YAML file; a missing or malformed file is a ConfigError naming it (and the line of a syntax
 /// error).

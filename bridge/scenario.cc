@@ -198,8 +198,7 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
     map.Finish();
 
     if (p.rate_hz > 0) {
-      const double period_steps = 1.0 / (p.rate_hz * s.clock.step_s);
-      if (period_steps < 1.0 - 1e-9 || std::fabs(period_steps - std::round(period_steps)) > 1e-6) {
+      if (StepsPerPeriod(p.rate_hz, s.clock.step_s) == 0) {
         map.Fail("rate_hz", "must divide the clock rate " + std::to_string(1.0 / s.clock.step_s) +
                                 " Hz (a period of a whole number of clock steps)");
       }
@@ -254,8 +253,7 @@ void AssignEndpoints(Scenario* scenario, const std::string& run_id) {
 StepSchedule::StepSchedule(const Scenario& scenario) {
   for (const auto& p : scenario.processes) {
     if (p.role == ProcessRole::kClock) continue;
-    const uint64_t period =
-        p.rate_hz > 0 ? static_cast<uint64_t>(std::llround(1.0 / (p.rate_hz * scenario.clock.step_s))) : 1;
+    const uint64_t period = p.rate_hz > 0 ? StepsPerPeriod(p.rate_hz, scenario.clock.step_s) : 1;
     members_.push_back(Member{p.name, p.role, period});
   }
 }

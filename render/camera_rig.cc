@@ -1,5 +1,6 @@
 #include "render/camera_rig.h"
 
+#include <cctype>
 #include <cmath>
 #include <set>
 
@@ -13,6 +14,12 @@ using bridge::YamlMap;
 CameraConfig ReadCamera(YamlMap& map) {
   CameraConfig config;
   map.Required("name", &config.name);
+  // the name becomes part of topic and frame names
+  if (config.name.empty() || std::isdigit(static_cast<unsigned char>(config.name[0])) ||
+      config.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") !=
+          std::string::npos) {
+    map.Fail("name", "expected letters, digits and '_' (not first a digit), got '" + config.name + "'");
+  }
   std::string mount = "body";
   map.OptionalChoice("mount", &mount, {"body", "world", "chase"});
   config.mount.kind = mount == "world"   ? CameraMount::Kind::kWorld
@@ -82,6 +89,14 @@ std::vector<std::string> CameraConfig::EyeNames() const {
   if (baseline_m > 0.0) return {"left", "right"};
   return {""};
 }
+
+std::string CameraConfig::TopicNamespace(int eye) const {
+  const std::string eye_name = EyeNames().at(eye);
+  return "/" + (mount.kind == CameraMount::Kind::kWorld ? "" : mount.body + "/") + name +
+         (eye_name.empty() ? "" : "/" + eye_name);
+}
+
+std::string CameraConfig::OpticalFrameId(int eye) const { return TopicNamespace(eye).substr(1) + "_optical"; }
 
 std::vector<Eigen::Isometry3d> CameraPoses_W(const CameraConfig& config, const Eigen::Isometry3d& X_WB) {
   Eigen::Isometry3d X_WC = Eigen::Isometry3d::Identity();

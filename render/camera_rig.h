@@ -40,6 +40,12 @@ struct CameraConfig {
 
   /// "" for a mono camera; "left" and "right" for a stereo pair.
   std::vector<std::string> EyeNames() const;
+  /// The topic namespace of an eye: "/<body>/<name>[/<eye>]" ("/iap/sub1/stereo/left"), "/<name>[/<eye>]"
+  /// for a world-fixed camera. Its images go to <namespace>/image_raw[/compressed], <namespace>/camera_info
+  /// and <namespace>/depth/image_raw.
+  std::string TopicNamespace(int eye) const;
+  /// The optical frame's name in message headers: the namespace without the leading '/' + "_optical".
+  std::string OpticalFrameId(int eye) const;
 };
 
 /// X_WC of each eye (EyeNames order). X_WB is the mount's body pose (ignored for kWorld).

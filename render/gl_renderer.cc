@@ -1,5 +1,7 @@
 // The OpenGL renderer (every backend) and the factory. GL entry points come from internal::GlFunctions.
 
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -17,6 +19,9 @@ using internal::GlContext;
 using internal::GlFunctions;
 
 // Object space O -> world W -> optical frame C -> clip. Lighting in linear light, sRGB written out.
+// The shadow map of the objects on bodies: over a vehicle's few metres, 1024 texels give millimetre texels.
+constexpr int kBodyShadowResolution = 1024;
+
 constexpr char kSceneVertexShader[] = R"(#version 330 core
 layout(location = 0) in vec3 position_O;
 layout(location = 1) in vec3 normal_O;
@@ -54,10 +59,14 @@ uniform float shininess;
 uniform vec3 to_sun_W;
 uniform vec3 sun;            // linear irradiance
 uniform vec3 ambient;        // linear irradiance
-uniform bool shadows;
+uniform bool shadows;                   // of the objects fixed in W (drawn once per scene)
 uniform sampler2DShadow shadow_map;
 uniform mat4 light_clip_W;
 uniform float shadow_texel_m;
+uniform bool body_shadows;              // of the objects on moving bodies (drawn every frame they move)
+uniform sampler2DShadow body_shadow_map;
+uniform mat4 body_light_clip_W;
+uniform float body_shadow_texel_m;
 uniform vec3 eye_W;
 uniform float fog_density;
 uniform vec3 fog_color;      // linear
@@ -70,20 +79,21 @@ vec3 EncodeSrgb(vec3 c) {
   return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
 }
 
-// the fraction of the sun reaching p (2x2 taps of the hardware's 2x2 filtered compare)
-float SunVisible(vec3 p, vec3 n) {
-  if (!shadows) return 1.0;
+// the fraction of the sun reaching p past one shadow map: one tap of the hardware's 2x2 filtered compare
+// (on llvmpipe each tap costs about as much as the rest of the shading)
+float Visible(sampler2DShadow map, mat4 clip_W, float texel_m, vec3 p, vec3 n) {
   // offset along the normal by a texel and a half: no self-shadow acne at grazing sun
-  vec4 q = light_clip_W * vec4(p + n * (1.5 * shadow_texel_m), 1.0);
+  vec4 q = clip_W * vec4(p + n * (1.5 * texel_m), 1.0);
   vec3 s = q.xyz / q.w * 0.5 + 0.5;
   if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
-  vec2 texel = 1.0 / vec2(textureSize(shadow_map, 0));
-  float sum = 0.0;
-  sum += texture(shadow_map, vec3(s.xy + vec2(-0.5, -0.5) * texel, s.z));
-  sum += texture(shadow_map, vec3(s.xy + vec2(0.5, -0.5) * texel, s.z));
-  sum += texture(shadow_map, vec3(s.xy + vec2(-0.5, 0.5) * texel, s.z));
-  sum += texture(shadow_map, vec3(s.xy + vec2(0.5, 0.5) * texel, s.z));
-  return 0.25 * sum;
+  return texture(map, s);
+}
+
+float SunVisible(vec3 p, vec3 n) {
+  float visible = 1.0;
+  if (shadows) visible = Visible(shadow_map, light_clip_W, shadow_texel_m, p, n);
+  if (body_shadows) visible = min(visible, Visible(body_shadow_map, body_light_clip_W, body_shadow_texel_m, p, n));
+  return visible;
 }
 
 void main() {
@@ -229,8 +239,18 @@ class GlRenderer final : public Renderer {
     body_names_ = scene_.Bodies();
     X_WB_.assign(body_names_.size(), Eigen::Isometry3d::Identity());
     object_body_.clear();
-    for (const SceneObject& object : scene_.objects) object_body_.push_back(BodyIndex(object.body));
-    shadow_dirty_ = true;
+    object_radius_m_.clear();
+    for (const SceneObject& object : scene_.objects) {
+      object_body_.push_back(BodyIndex(object.body));
+      double radius_m = 0.0;
+      for (const MeshPart& part : scene_.meshes[object.mesh].parts) {
+        for (const Eigen::Vector3f& p : part.positions_O_m) {
+          radius_m = std::max(radius_m, (p.cast<double>().cwiseProduct(object.scale)).norm());
+        }
+      }
+      object_radius_m_.push_back(radius_m);
+    }
+    fixed_shadow_dirty_ = body_shadow_dirty_ = true;
     CheckError("uploading the scene");
   }
 
@@ -245,7 +265,7 @@ class GlRenderer final : public Renderer {
     if (body < 0 || body >= static_cast<int>(X_WB_.size())) {
       throw std::out_of_range("renderer: no body " + std::to_string(body));
     }
-    if (X_WB.matrix() != X_WB_[body].matrix()) shadow_dirty_ = true;
+    if (X_WB.matrix() != X_WB_[body].matrix()) body_shadow_dirty_ = true;
     X_WB_[body] = X_WB;
   }
 
@@ -255,7 +275,9 @@ class GlRenderer final : public Renderer {
       throw std::invalid_argument("renderer: invalid camera (size, focal lengths or near/far)");
     }
     context_->MakeCurrent();
-    if (scene_.sun.shadows && shadow_dirty_) RenderShadowMap();
+    const bool body_shadows = scene_.sun.shadows && HasBodyCasters();
+    if (scene_.sun.shadows && fixed_shadow_dirty_) RenderFixedShadowMap();
+    if (body_shadows && body_shadow_dirty_) RenderBodyShadowMap();
     const Target& target = TargetFor(k.width, k.height);
     gl_.BindFramebuffer(GL_FRAMEBUFFER, target.framebuffer);
     const GLenum buffers[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
@@ -290,15 +312,22 @@ class GlRenderer final : public Renderer {
     p.Set("fog_density", scene_.fog.density_per_m);
     p.Set("fog_color", Linear(scene_.fog.color));
     p.Set("exposure", exposure);
-    p.Set("shadows", scene_.sun.shadows ? 1 : 0);
     p.Set("albedo_texture", 0);
+    p.Set("shadows", scene_.sun.shadows ? 1 : 0);
     p.Set("shadow_map", 1);
+    p.Set("body_shadows", body_shadows ? 1 : 0);
+    p.Set("body_shadow_map", 2);
     if (scene_.sun.shadows) {
-      p.Set("light_clip_W", Eigen::Matrix4f(light_clip_W_.cast<float>()));
-      p.Set("shadow_texel_m",
-            static_cast<float>(2.0 * scene_.sun.shadow_radius_m / scene_.sun.shadow_resolution));
+      p.Set("light_clip_W", Eigen::Matrix4f(fixed_shadow_.light_clip_W.cast<float>()));
+      p.Set("shadow_texel_m", static_cast<float>(fixed_shadow_.texel_m));
       gl_.ActiveTexture(GL_TEXTURE1);
-      gl_.BindTexture(GL_TEXTURE_2D, shadow_texture_);
+      gl_.BindTexture(GL_TEXTURE_2D, fixed_shadow_.texture);
+    }
+    if (body_shadows) {
+      p.Set("body_light_clip_W", Eigen::Matrix4f(body_shadow_.light_clip_W.cast<float>()));
+      p.Set("body_shadow_texel_m", static_cast<float>(body_shadow_.texel_m));
+      gl_.ActiveTexture(GL_TEXTURE2);
+      gl_.BindTexture(GL_TEXTURE_2D, body_shadow_.texture);
     }
     for (std::size_t o = 0; o < scene_.objects.size(); ++o) DrawObject(o);
     ReadBack(k.width, k.height, rgb, depth);
@@ -315,6 +344,13 @@ class GlRenderer final : public Renderer {
   };
   struct Target {
     GLuint framebuffer = 0, color = 0, depth_m = 0, depth_test = 0;
+  };
+  // A depth map seen from the sun: an orthographic view along its travel.
+  struct ShadowMap {
+    GLuint framebuffer = 0, texture = 0;
+    int resolution = 0;
+    Eigen::Matrix4d light_clip_W = Eigen::Matrix4d::Identity();
+    double texel_m = 0.0;
   };
 
   std::string String(GLenum name) const {
@@ -398,9 +434,14 @@ class GlRenderer final : public Renderer {
       gl_.DeleteRenderbuffers(3, buffers);
     }
     targets_.clear();
-    if (shadow_framebuffer_) gl_.DeleteFramebuffers(1, &shadow_framebuffer_);
-    if (shadow_texture_) gl_.DeleteTextures(1, &shadow_texture_);
-    shadow_framebuffer_ = shadow_texture_ = 0;
+    ReleaseShadowMap(&fixed_shadow_);
+    ReleaseShadowMap(&body_shadow_);
+  }
+
+  void ReleaseShadowMap(ShadowMap* map) {
+    if (map->framebuffer) gl_.DeleteFramebuffers(1, &map->framebuffer);
+    if (map->texture) gl_.DeleteTextures(1, &map->texture);
+    *map = ShadowMap();
   }
 
   // colour (RGBA8), metric depth (R32F) and the depth test's buffer, one set per image size
@@ -437,38 +478,67 @@ class GlRenderer final : public Renderer {
     return X_WO;
   }
 
-  // an orthographic view along the sun's direction of the sphere it shadows, depth from 3 radii toward
-  // the sun (casters above the sphere, tall buildings) to 1 radius beyond its centre
-  void RenderShadowMap() {
-    const Sun& sun = scene_.sun;
-    if (shadow_framebuffer_ && shadow_resolution_ != sun.shadow_resolution) {
-      gl_.DeleteFramebuffers(1, &shadow_framebuffer_);
-      gl_.DeleteTextures(1, &shadow_texture_);
-      shadow_framebuffer_ = shadow_texture_ = 0;
+  bool HasBodyCasters() const {
+    for (std::size_t o = 0; o < scene_.objects.size(); ++o) {
+      if (object_body_[o] >= 0 && scene_.objects[o].casts_shadow) return true;
     }
-    if (!shadow_framebuffer_) {
-      gl_.GenTextures(1, &shadow_texture_);
-      gl_.BindTexture(GL_TEXTURE_2D, shadow_texture_);
-      gl_.TexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, sun.shadow_resolution, sun.shadow_resolution, 0,
-                     GL_DEPTH_COMPONENT, GL_FLOAT, nullptr);
+    return false;
+  }
+
+  // Shadows come from two maps so that a flight redraws only what moves: the objects fixed in W, drawn when
+  // the scene is set, over the sun's configured sphere (casters up to 3 radii toward the sun); and the
+  // objects on bodies, drawn whenever a body moved, over the smallest sphere around them at a finer texel.
+  void RenderFixedShadowMap() {
+    const Sun& sun = scene_.sun;
+    const double r = sun.shadow_radius_m;
+    RenderShadowMap(&fixed_shadow_, sun.shadow_resolution, sun.shadow_center_W_m, r, 3.0 * r, r, false);
+    fixed_shadow_dirty_ = false;
+  }
+
+  void RenderBodyShadowMap() {
+    Eigen::AlignedBox3d casters_W;
+    for (std::size_t o = 0; o < scene_.objects.size(); ++o) {
+      if (object_body_[o] < 0 || !scene_.objects[o].casts_shadow) continue;
+      const Eigen::Vector3d center_W = ObjectToWorld(o).block<3, 1>(0, 3);
+      casters_W.extend(center_W - Eigen::Vector3d::Constant(object_radius_m_[o]));
+      casters_W.extend(center_W + Eigen::Vector3d::Constant(object_radius_m_[o]));
+    }
+    const double r = std::max(0.5 * casters_W.diagonal().norm(), 1e-3);
+    // the receivers: anything below the casters within the fixed map's reach
+    const double beyond_m = r + 4.0 * scene_.sun.shadow_radius_m;
+    RenderShadowMap(&body_shadow_, kBodyShadowResolution, casters_W.center(), r, r, beyond_m, true);
+    body_shadow_dirty_ = false;
+  }
+
+  // Draws the casters fixed in W (bodies false) or on bodies (true) into `map`: an orthographic view along
+  // the sun's travel of the disc of `radius_m` around center_W, depths from `toward_sun_m` before the centre
+  // to `beyond_m` past it.
+  void RenderShadowMap(ShadowMap* map, int resolution, const Eigen::Vector3d& center_W, double radius_m,
+                       double toward_sun_m, double beyond_m, bool bodies) {
+    if (map->framebuffer && map->resolution != resolution) ReleaseShadowMap(map);
+    if (!map->framebuffer) {
+      gl_.GenTextures(1, &map->texture);
+      gl_.BindTexture(GL_TEXTURE_2D, map->texture);
+      gl_.TexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, resolution, resolution, 0, GL_DEPTH_COMPONENT,
+                     GL_FLOAT, nullptr);
       gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
       gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
       gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
       gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
       gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
       gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
-      gl_.GenFramebuffers(1, &shadow_framebuffer_);
-      gl_.BindFramebuffer(GL_FRAMEBUFFER, shadow_framebuffer_);
-      gl_.FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, shadow_texture_, 0);
+      gl_.GenFramebuffers(1, &map->framebuffer);
+      gl_.BindFramebuffer(GL_FRAMEBUFFER, map->framebuffer);
+      gl_.FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, map->texture, 0);
       const GLenum none = GL_NONE;
       gl_.DrawBuffers(1, &none);
       if (gl_.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
         throw std::runtime_error("OpenGL: the shadow-map framebuffer is incomplete");
       }
-      shadow_resolution_ = sun.shadow_resolution;
+      map->resolution = resolution;
     }
     // light frame L: z_L along the sun's travel, x_L and y_L across it
-    const Eigen::Vector3d z_L = sun.direction_W.normalized();
+    const Eigen::Vector3d z_L = scene_.sun.direction_W.normalized();
     const Eigen::Vector3d helper =
         std::abs(z_L.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
     const Eigen::Vector3d x_L = helper.cross(z_L).normalized();
@@ -477,18 +547,18 @@ class GlRenderer final : public Renderer {
     X_LW.block<1, 3>(0, 0) = x_L.transpose();
     X_LW.block<1, 3>(1, 0) = y_L.transpose();
     X_LW.block<1, 3>(2, 0) = z_L.transpose();
-    X_LW.block<3, 1>(0, 3) = -X_LW.block<3, 3>(0, 0) * sun.shadow_center_W_m;
-    const double r = sun.shadow_radius_m;
-    const double z_near = -3.0 * r, z_far = r;
+    X_LW.block<3, 1>(0, 3) = -X_LW.block<3, 3>(0, 0) * center_W;
+    const double z_near = -toward_sun_m, z_far = beyond_m;
     Eigen::Matrix4d ortho = Eigen::Matrix4d::Identity();
-    ortho(0, 0) = 1.0 / r;
-    ortho(1, 1) = 1.0 / r;
+    ortho(0, 0) = 1.0 / radius_m;
+    ortho(1, 1) = 1.0 / radius_m;
     ortho(2, 2) = 2.0 / (z_far - z_near);
     ortho(2, 3) = -(z_far + z_near) / (z_far - z_near);
-    light_clip_W_ = ortho * X_LW;
+    map->light_clip_W = ortho * X_LW;
+    map->texel_m = 2.0 * radius_m / resolution;
 
-    gl_.BindFramebuffer(GL_FRAMEBUFFER, shadow_framebuffer_);
-    gl_.Viewport(0, 0, shadow_resolution_, shadow_resolution_);
+    gl_.BindFramebuffer(GL_FRAMEBUFFER, map->framebuffer);
+    gl_.Viewport(0, 0, resolution, resolution);
     gl_.Enable(GL_DEPTH_TEST);
     gl_.DepthFunc(GL_LESS);
     gl_.Clear(GL_DEPTH_BUFFER_BIT);
@@ -497,15 +567,14 @@ class GlRenderer final : public Renderer {
     Program& p = *shadow_program_;
     gl_.UseProgram(p.id());
     for (std::size_t o = 0; o < scene_.objects.size(); ++o) {
-      if (!scene_.objects[o].casts_shadow) continue;
-      p.Set("light_clip_O", Eigen::Matrix4f((light_clip_W_ * ObjectToWorld(o)).cast<float>()));
+      if (!scene_.objects[o].casts_shadow || (object_body_[o] >= 0) != bodies) continue;
+      p.Set("light_clip_O", Eigen::Matrix4f((map->light_clip_W * ObjectToWorld(o)).cast<float>()));
       for (const GpuPart& part : meshes_[scene_.objects[o].mesh]) {
         gl_.BindVertexArray(part.vertex_array);
         gl_.DrawElements(GL_TRIANGLES, part.index_count, GL_UNSIGNED_INT, nullptr);
       }
     }
     gl_.Disable(GL_POLYGON_OFFSET_FILL);
-    shadow_dirty_ = false;
   }
 
   const Material& MaterialOf(const SceneObject& object, int part_material) const {
@@ -559,12 +628,11 @@ class GlRenderer final : public Renderer {
   std::vector<GLuint> textures_;
   std::vector<std::string> body_names_;
   std::vector<Eigen::Isometry3d> X_WB_;
-  std::vector<int> object_body_;  // body index per object, −1: fixed in W
+  std::vector<int> object_body_;         // body index per object, −1: fixed in W
+  std::vector<double> object_radius_m_;  // per object: its mesh's farthest vertex from O, scaled
   std::map<std::pair<int, int>, Target> targets_;
-  GLuint shadow_framebuffer_ = 0, shadow_texture_ = 0;
-  int shadow_resolution_ = 0;
-  Eigen::Matrix4d light_clip_W_ = Eigen::Matrix4d::Identity();
-  bool shadow_dirty_ = true;
+  ShadowMap fixed_shadow_, body_shadow_;
+  bool fixed_shadow_dirty_ = true, body_shadow_dirty_ = true;
 };
 
 }  // namespace

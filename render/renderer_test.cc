@@ -8,8 +8,13 @@
 #include <cmath>
 #include <iostream>
 
+#include "render/testing/markers.h"
+
 namespace iapsim::render {
 namespace {
+
+using iapsim::render::testing::Centroid;
+using iapsim::render::testing::DiscMarkerScene;
 
 Renderer& SharedRenderer() {
   static std::unique_ptr<Renderer> renderer = MakeRenderer();
@@ -37,38 +42,9 @@ Eigen::Isometry3d LookAlong(const Eigen::Vector3d& p_WC, const Eigen::Vector3d& 
   return X_WC;
 }
 
-// Black sky, no light: an unlit white disc at p_C facing the camera is the only thing drawn. A disc parallel
-// to the image plane images as a circle centred on its centre's projection (a sphere's outline would be an
-// ellipse pushed outward from it).
+// The disc marker at p_C, facing the camera.
 Scene MarkerScene(const Eigen::Isometry3d& X_WC, const Eigen::Vector3d& p_C, double radius_m) {
-  Scene scene;
-  scene.sky_color.setZero();
-  scene.sun.shadows = false;
-  Material white;
-  white.color.setOnes();
-  white.unlit = true;
-  const int material = scene.AddMaterial(white);
-  SceneObject marker;
-  marker.name = "marker";
-  marker.mesh = scene.AddMesh(MakeCylinder(radius_m, 1e-4, material, 64));
-  marker.X_BO = X_WC * Eigen::Translation3d(p_C);  // the cylinder's axis along z_C
-  scene.AddObject(marker);
-  return scene;
-}
-
-// Intensity-weighted centroid of the image's red channel, pixel-centre convention.
-Eigen::Vector2d Centroid(const Image& image) {
-  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-  double total = 0.0;
-  for (int v = 0; v < image.height; ++v) {
-    for (int u = 0; u < image.width; ++u) {
-      const double w = image.Pixel(u, v)[0];
-      sum += w * Eigen::Vector2d(u, v);
-      total += w;
-    }
-  }
-  EXPECT_GT(total, 0.0) << "the marker is not in the image";
-  return sum / total;
+  return DiscMarkerScene(X_WC * Eigen::Translation3d(p_C), radius_m);
 }
 
 TEST(Renderer, MarkerAppearsAtThePinholePixel) {

@@ -115,12 +115,12 @@ class SensorsNode : public bridge::Process {
  private:
   // How many process steps apart a sensor of `rate_hz` samples; it must be a whole number.
   uint64_t Divider(bridge::YamlMap& params, const std::string& section, double rate_hz) const {
-    const double every = 1.0 / (rate_hz * process_step_s_);
-    if (every < 1.0 - 1e-9 || std::fabs(every - std::round(every)) > 1e-6) {
+    const uint64_t every = bridge::StepsPerPeriod(rate_hz, process_step_s_);
+    if (every == 0) {
       params.Fail(section, "rate_hz " + std::to_string(rate_hz) + " must divide the process's rate_hz " +
                                std::to_string(1.0 / process_step_s_));
     }
-    return static_cast<uint64_t>(std::llround(every));
+    return every;
   }
 
   std::string Topic(const std::string& sub, const std::string& what) const {

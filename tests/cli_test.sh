@@ -11,7 +11,7 @@ trap 'rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
 # every subcommand answers --help
-for cmd in run replay info export topics echo urdf bench; do
+for cmd in run replay info export video topics echo urdf bench; do
   "$iapsim" "$cmd" --help > /dev/null || fail "$cmd --help"
 done
 
@@ -38,15 +38,15 @@ head -1 "$work/uwb.csv" | grep -q "^time_s,header.seq,header.stamp" || fail "csv
 grep -Eq "^/old/uwb +iapsim_msgs/UwbRanges +201 " "$work/replayed.out" || fail "replay: $(cat "$work/replayed.out")"
 
 # interaction control is checked before anything flies: a mode it cannot work in, a section for the other law
-check_control() {  # expects exit 2 and the given text from the control process's --check
+check_process() {  # EXEC SCENARIO NODE TEXT ARGS...: expects exit 2 and TEXT from the process's --check
   set +e
-  "$bin/iapsim_control" --scenario "$src/configs/regression/wall_push.yaml" --node control --check "${@:2}" \
-    > "$work/check.out" 2>&1
+  "$bin/$1" --scenario "$src/configs/$2" --node "$3" --check "${@:5}" > "$work/check.out" 2>&1
   local code=$?
   set -e
-  [ $code -eq 2 ] || fail "control --check $* exited $code: $(cat "$work/check.out")"
-  grep -q "$1" "$work/check.out" || fail "control --check $*: $(cat "$work/check.out")"
+  [ $code -eq 2 ] || fail "$1 --check ${*:5} exited $code: $(cat "$work/check.out")"
+  grep -q "$4" "$work/check.out" || fail "$1 --check ${*:5}: $(cat "$work/check.out")"
 }
+check_control() { check_process iapsim_control regression/wall_push.yaml control "$@"; }
 check_control "interaction: needs mode: track" --set processes.control.params.mode=hover
 check_control "wrench_control: unknown key" --set processes.control.params.interaction=admittance
 
@@ -117,5 +117,26 @@ code=$?
 set -e
 [ $code -eq 2 ] || fail "regress with a bad suite exited $code: $(cat "$work/regress.out")"
 grep -q "suite.yaml:3" "$work/regress.out" || fail "regress error names no line: $(cat "$work/regress.out")"
+
+# a rendered flight: the scenario's videos and one more asked for with --video, each with its sheet of frames
+"$iapsim" run "$src/configs/scenarios/three_star_stereo.yaml" --duration 0.5 --out "$work/stereo" \
+  --video iap/sub2/stereo/right > "$work/stereo.out" 2>&1 || fail "stereo run: $(cat "$work/stereo.out")"
+for eye in iap_platform_chase iap_sub1_stereo_left iap_sub2_stereo_right; do
+  head -c 12 "$work/stereo/$eye.mp4" | grep -q ftyp || fail "$eye.mp4 is not an MP4: $(cat "$work/stereo.out")"
+  [ -s "$work/stereo/${eye}_frames.png" ] || fail "no ${eye}_frames.png"
+done
+set +e
+"$iapsim" video "$work/stereo/run.bag" iap/sub9/stereo/left > "$work/video.out" 2>&1
+code=$?
+set -e
+[ $code -eq 1 ] || fail "video of a missing camera exited $code"
+grep -q "/iap/sub1/stereo/left/image_raw/compressed" "$work/video.out" || fail "video: $(cat "$work/video.out")"
+
+# the render process's configuration is checked before anything flies
+check_render() { check_process iapsim_render scenarios/three_star_stereo.yaml render "$@"; }
+check_render "cameras\[0\].rate_hz: 20 must divide the render process's rate_hz 25" --set processes.render.rate_hz=25
+check_render "cameras\[0\].body: no body 'iap/sub9'" \
+  --set 'processes.render.params.cameras=[{name: stereo, body: iap/sub9}]'
+check_render "scene: no file" --set processes.render.params.scene=missing.yaml
 
 echo "cli_test: all checks passed"

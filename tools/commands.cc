@@ -20,6 +20,7 @@
 #include "model/urdf.h"
 #include "model/vehicle.h"
 #include "tools/run_evaluation.h"
+#include "tools/video.h"
 
 namespace iapsim::tools {
 namespace {
@@ -91,6 +92,15 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
   }
   std::printf("  %s/log.txt, logs/           launcher and per-process logs\n", result.run_dir.c_str());
   EvaluateRun(result.run_dir, evaluation);
+  if (!args.video.empty()) {
+    try {
+      PrintCameraVideo(WriteCameraVideo(result.run_dir + "/run.bag", args.video,
+                                        DefaultVideoPath(result.run_dir + "/run.bag", args.video)));
+    } catch (const std::exception& e) {
+      std::cerr << "iapsim: --video: " << e.what() << std::endl;
+      return 1;
+    }
+  }
   return 0;
 }
 
@@ -129,11 +139,18 @@ int Evaluate(const std::string& run_dir) {
   const Scenario scenario = LoadScenario(run_dir + "/scenario.resolved.yaml");
   const RunEvaluation evaluation = ReadRunEvaluation(scenario);
   if (evaluation.empty()) {
-    std::cerr << "iapsim: " << scenario.file << ": no evaluation section (tracking, contact): nothing to evaluate"
-              << std::endl;
+    std::cerr << "iapsim: " << scenario.file
+              << ": no evaluation section (tracking, contact, videos): nothing to evaluate" << std::endl;
     return 2;
   }
   EvaluateRun(run_dir, evaluation);
+  return 0;
+}
+
+int Video(const VideoArgs& args) {
+  const CameraVideo video = WriteCameraVideo(
+      args.bag, args.camera, args.output.empty() ? DefaultVideoPath(args.bag, args.camera) : args.output);
+  PrintCameraVideo(video);
   return 0;
 }
 

@@ -15,6 +15,7 @@ struct RunArgs {
   std::optional<double> duration_s;
   std::optional<uint64_t> seed;
   std::vector<std::string> overrides;  // KEY=VALUE
+  std::string video;                   // a camera eye whose recorded images become an MP4 after the run
 };
 int Run(const RunArgs& args);
 
@@ -40,6 +41,14 @@ struct RegressArgs {
 int Regress(const RegressArgs& args);
 
 int Info(const std::string& bag);
+
+struct VideoArgs {
+  std::string bag;
+  std::string camera;  // eye namespace or image topic
+  std::string output;  // empty: DefaultVideoPath
+};
+/// An MP4 and a contact sheet of a camera's images in a bag (tools/video.h).
+int Video(const VideoArgs& args);
 
 struct ExportArgs {
   std::string bag;

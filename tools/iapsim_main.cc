@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--duration", run.duration_s, "sim seconds");
   run_cmd->add_option("--seed", run.seed, "seed of every random stream");
   run_cmd->add_option("--set", run.overrides, "override a scenario key: KEY=VALUE (repeatable)");
+  run_cmd->add_option("--video", run.video,
+                      "after the run, an MP4 of this camera's recorded images (e.g. iap/platform/chase)");
 
   ReplayArgs replay;
   auto* replay_cmd = app.add_subcommand("replay", "play recorded topics of a bag into a run of a scenario");
@@ -51,6 +53,14 @@ int main(int argc, char** argv) {
   std::string info_bag;
   auto* info_cmd = app.add_subcommand("info", "list a bag's topics, types, counts and rates");
   info_cmd->add_option("bag", info_bag, "bag file")->required()->check(CLI::ExistingFile);
+
+  VideoArgs video;
+  auto* video_cmd = app.add_subcommand("video", "an MP4 and a contact sheet of a camera's images in a bag");
+  video_cmd->add_option("bag", video.bag, "bag file")->required()->check(CLI::ExistingFile);
+  video_cmd->add_option("camera", video.camera, "the eye, e.g. iap/sub1/stereo/left, or its image topic")
+      ->required();
+  video_cmd->add_option("-o,--output", video.output,
+                        "MP4 file (default: next to the bag, named after the eye)");
 
   ExportArgs exp;
   auto* export_cmd = app.add_subcommand("export", "write one topic of a bag as CSV or as a TUM trajectory");
@@ -98,6 +108,7 @@ int main(int argc, char** argv) {
     if (*regress_cmd) return Regress(regress);
     if (*info_cmd) return Info(info_bag);
     if (*export_cmd) return Export(exp);
+    if (*video_cmd) return Video(video);
     if (*topics_cmd) return Topics(topics);
     if (*echo_cmd) return Echo(echo);
     if (*urdf_cmd) return Urdf(urdf_vehicle, urdf_output);

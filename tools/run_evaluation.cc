@@ -1,5 +1,7 @@
 #include "tools/run_evaluation.h"
 
+#include "tools/video.h"
+
 namespace iapsim::tools {
 
 RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario) {
@@ -8,6 +10,17 @@ RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario) {
   bridge::YamlMap evaluation(scenario.evaluation, scenario.file, "evaluation");
   out.tracking = ReadTrackingEvaluation(evaluation);
   out.contact = ReadContactEvaluation(evaluation);
+  if (evaluation.Has("videos")) {
+    const YAML::Node videos = evaluation.Raw("videos");
+    if (!videos.IsSequence())
+      evaluation.Fail("videos", "expected a list of camera eyes (iap/platform/chase)");
+    for (const YAML::Node& camera : videos) {
+      if (!camera.IsScalar())
+        evaluation.Fail("videos", "expected a list of camera eyes (iap/platform/chase)");
+      out.videos.push_back(camera.Scalar());
+    }
+    evaluation.SetResolved("videos", videos);
+  }
   evaluation.Finish();
   return out;
 }
@@ -21,6 +34,13 @@ nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& eval
   if (evaluation.contact) {
     out["contact"] = EvaluateContact(run_dir, *evaluation.contact);
     PrintContact(out["contact"]);
+  }
+  const std::string bag = run_dir + "/run.bag";
+  for (const std::string& camera : evaluation.videos) {
+    const CameraVideo video = WriteCameraVideo(bag, camera, DefaultVideoPath(bag, camera));
+    PrintCameraVideo(video);
+    out["videos"][video.topic] = {
+        {"video", video.video_path}, {"sheet", video.sheet_path}, {"images", video.images}};
   }
   return out;
 }

@@ -1,10 +1,11 @@
 #pragma once
-// The after-run analyses a scenario asks for in its `evaluation` section: tracking (flight_evaluation.h) and
-// contact (contact_evaluation.h). `iapsim run`, `iapsim evaluate` and `iapsim regress` all go through here.
+// The after-run analyses a scenario asks for in its `evaluation` section: tracking (flight_evaluation.h),
+// contact (contact_evaluation.h) and videos of cameras (video.h). `iapsim run`, `iapsim evaluate` and `iapsim regress` all go through here.
 
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "bridge/scenario.h"
 #include "tools/contact_evaluation.h"
@@ -15,14 +16,15 @@ namespace iapsim::tools {
 struct RunEvaluation {
   std::optional<TrackingEvaluation> tracking;
   std::optional<ContactEvaluation> contact;
-  bool empty() const { return !tracking && !contact; }
+  std::vector<std::string> videos;  // camera eyes: an MP4 and a contact sheet of each in the run directory
+  bool empty() const { return !tracking && !contact && videos.empty(); }
 };
 
 /// Reads the scenario's `evaluation` section (unknown keys are errors). Throws bridge::ConfigError.
 RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario);
 
-/// Runs each analysis on run_dir, prints its table and returns {tracking: ..., contact: ...} (the sections
-/// also written into run_dir/metrics.json). Throws std::runtime_error naming a file that is missing data.
+/// Runs each analysis on run_dir, prints its table and returns {tracking: ..., contact: ..., videos: ...}
+/// (tracking and contact are also written into run_dir/metrics.json). Throws std::runtime_error naming a file that is missing data.
 nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& evaluation);
 
 }  // namespace iapsim::tools
