@@ -1,6 +1,7 @@
 #include "render/camera_messages.h"
 
 #include <cstring>
+#include <utility>
 
 #include "bridge/eigen_msgs.h"
 
@@ -30,12 +31,11 @@ sensor_msgs::CameraInfo CameraInfoMessage(const CameraConfig& config, int eye,
   return info;
 }
 
-sensor_msgs::CompressedImage PngMessage(const std::vector<std::uint8_t>& png,
-                                        const std_msgs::Header& header) {
+sensor_msgs::CompressedImage PngMessage(std::vector<std::uint8_t> png, const std_msgs::Header& header) {
   sensor_msgs::CompressedImage message;
   message.header = header;
   message.format = "rgb8; png compressed rgb8";  // compressed_image_transport's form
-  message.data = png;
+  message.data = std::move(png);
   return message;
 }
 

@@ -21,7 +21,8 @@ std_msgs::Header EyeHeader(const CameraConfig& config, int eye, int64_t stamp_ns
 
 sensor_msgs::CameraInfo CameraInfoMessage(const CameraConfig& config, int eye,
                                           const std_msgs::Header& header);
-sensor_msgs::CompressedImage PngMessage(const std::vector<std::uint8_t>& png, const std_msgs::Header& header);
+/// Takes the PNG bytes (a frame's encoded image moves into the message, no copy).
+sensor_msgs::CompressedImage PngMessage(std::vector<std::uint8_t> png, const std_msgs::Header& header);
 sensor_msgs::Image RgbMessage(const Image& image, const std_msgs::Header& header);
 sensor_msgs::Image DepthMessage(const DepthImage& depth, const std_msgs::Header& header);
 

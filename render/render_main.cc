@@ -267,17 +267,17 @@ class RenderNode : public bridge::Process {
     lock.unlock();
     changed_.notify_all();
 
-    for (const EyeFrame& frame : frames) {
+    for (EyeFrame& frame : frames) {
       const CameraConfig& camera = cameras_[frame.camera];
       const std::string ns = camera.TopicNamespace(frame.eye);
       const std_msgs::Header header = EyeHeader(camera, frame.eye, request.stamp_ns);
-      bus_->Publish(ns + "/image_raw/compressed", PngMessage(frame.png, header));
+      png_bytes_ += frame.png.size();
+      bus_->Publish(ns + "/image_raw/compressed", PngMessage(std::move(frame.png), header));
       bus_->Publish(ns + "/camera_info", CameraInfoMessage(camera, frame.eye, header));
       if (camera.publish_raw) bus_->Publish(ns + "/image_raw", RgbMessage(frame.rgb, header));
       if (camera.publish_depth) bus_->Publish(ns + "/depth/image_raw", DepthMessage(frame.depth, header));
       ++images_;
       ++images_per_eye_[{static_cast<size_t>(frame.camera), static_cast<size_t>(frame.eye)}];
-      png_bytes_ += frame.png.size();
     }
     ++frames_;
     last_publish_ = Clock::now();
