@@ -1,11 +1,15 @@
 #include "bridge/bus.h"
 
 #include <iapsim_msgs/Hello.h>
+#include <poll.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cstring>
+#include <thread>
 #include <zmq.hpp>
 
+#include "bridge/internal/shm_transport.h"
 #include "bridge/internal/zmq_poll.h"
 
 namespace iapsim::bridge {
@@ -42,9 +46,8 @@ struct Meta {
   std::string publisher;
 };
 
-bool ParseMeta(const zmq::message_t& frame, Meta* meta) {
-  auto p = static_cast<const uint8_t*>(frame.data());
-  const uint8_t* end = p + frame.size();
+bool ParseMeta(const uint8_t* p, size_t size, Meta* meta) {
+  const uint8_t* end = p + size;
   if (end - p < 17 || p[0] != kWireVersion) return false;
   std::memcpy(&meta->sequence, p + 1, 8);
   std::memcpy(&meta->sent_unix_ns, p + 9, 8);
@@ -55,6 +58,9 @@ bool ParseMeta(const zmq::message_t& frame, Meta* meta) {
   p += 32;
   return ReadU16String(p, end, &meta->publisher) && p == end;
 }
+
+// A shared-memory record holds the three frames: u32 topic size | u32 meta size | topic | meta | payload.
+constexpr size_t kRecordPrefixBytes = 8;
 
 struct Subscription {
   std::string topic;  // exact topic, or prefix
@@ -70,6 +76,13 @@ struct Bus::Impl {
   zmq::context_t context{1};
   zmq::socket_t publisher{context, zmq::socket_type::xpub};
   zmq::socket_t subscriber{context, zmq::socket_type::sub};
+  std::unique_ptr<internal::ShmPublisher> shm_publisher;    // when bound to shm://
+  std::unique_ptr<internal::ShmSubscriber> shm_subscriber;  // when some peers are shm://
+  bool zmq_peers = false;
+  std::vector<std::string> prefixes;  // subscribed prefix bytes, repeated as often as subscribed
+  std::chrono::steady_clock::time_point next_maintenance{}, next_accept{};
+  std::vector<pollfd> poll_fds;
+  std::vector<zmq::pollitem_t> poll_items;
   std::vector<Subscription> subscriptions;
   std::map<std::string, uint64_t> next_sequence;                 // per topic, at this publisher
   std::map<std::pair<std::string, std::string>, uint64_t> seen;  // (publisher, topic) -> next expected
@@ -77,10 +90,135 @@ struct Bus::Impl {
   bool confirm_subscribed = false;
   int spins_since_drain = 0;
   std::string meta_buffer;
+  std::string topic;  // of the message being dispatched
+  Meta meta;
 
-  void Subscribe(const std::string& prefix_bytes) { subscriber.set(zmq::sockopt::subscribe, prefix_bytes); }
+  void Subscribe(const std::string& prefix_bytes) {
+    subscriber.set(zmq::sockopt::subscribe, prefix_bytes);
+    prefixes.push_back(prefix_bytes);
+    if (shm_subscriber) shm_subscriber->SetSubscriptions(prefixes);
+  }
   void Unsubscribe(const std::string& prefix_bytes) {
     subscriber.set(zmq::sockopt::unsubscribe, prefix_bytes);
+    auto it = std::find(prefixes.begin(), prefixes.end(), prefix_bytes);
+    if (it != prefixes.end()) prefixes.erase(it);
+    if (shm_subscriber) shm_subscriber->SetSubscriptions(prefixes);
+  }
+
+  int DrainQueued(BusStats& stats, int max_batch) {
+    int dispatched = 0;
+    if (shm_subscriber) {
+      try {
+        shm_subscriber->Drain(max_batch, [&](const uint8_t* record, size_t size) {
+          if (DispatchRecord(stats, record, size)) ++dispatched;
+        });
+      } catch (const BusError&) {
+        throw;
+      } catch (const std::runtime_error& e) {
+        throw BusError("node '" + options.node_name + "': " + e.what());
+      }
+    }
+    if (zmq_peers && dispatched < max_batch) dispatched += DrainZmq(stats, max_batch - dispatched);
+    return dispatched;
+  }
+
+  bool DispatchRecord(BusStats& stats, const uint8_t* record, size_t size) {
+    uint32_t sizes[2];
+    if (size < kRecordPrefixBytes) return Malformed(stats);
+    std::memcpy(sizes, record, kRecordPrefixBytes);
+    if (sizes[0] > size - kRecordPrefixBytes || sizes[1] > size - kRecordPrefixBytes - sizes[0]) {
+      return Malformed(stats);
+    }
+    const uint8_t* topic_bytes = record + kRecordPrefixBytes;
+    const uint8_t* meta_bytes = topic_bytes + sizes[0];
+    const uint8_t* payload = meta_bytes + sizes[1];
+    return Dispatch(stats, reinterpret_cast<const char*>(topic_bytes), sizes[0], meta_bytes, sizes[1],
+                    payload, size - kRecordPrefixBytes - sizes[0] - sizes[1]);
+  }
+
+  int DrainZmq(BusStats& stats, int max_batch) {
+    int dispatched = 0;
+    zmq::message_t topic_frame, meta_frame, payload;
+    while (dispatched < max_batch && subscriber.recv(topic_frame, zmq::recv_flags::dontwait)) {
+      // read the whole multipart message before judging it, so a bad one never desynchronises the stream
+      bool complete =
+          topic_frame.more() && subscriber.recv(meta_frame) && meta_frame.more() && subscriber.recv(payload);
+      while (subscriber.get(zmq::sockopt::rcvmore)) {
+        zmq::message_t rest;
+        (void)subscriber.recv(rest);
+        complete = false;
+      }
+      if (!complete) {
+        Malformed(stats);
+        continue;
+      }
+      if (Dispatch(stats, static_cast<const char*>(topic_frame.data()), topic_frame.size(),
+                   static_cast<const uint8_t*>(meta_frame.data()), meta_frame.size(),
+                   static_cast<const uint8_t*>(payload.data()), payload.size())) {
+        ++dispatched;
+      }
+    }
+    return dispatched;
+  }
+
+  bool Malformed(BusStats& stats) {
+    ++stats.malformed;
+    return false;
+  }
+
+  // One message to the subscriptions it matches; false for handshake traffic and malformed messages.
+  bool Dispatch(BusStats& stats, const char* topic_bytes, size_t topic_size, const uint8_t* meta_bytes,
+                size_t meta_size, const uint8_t* payload, size_t payload_size) {
+    if (topic_size == 0 || topic_bytes[topic_size - 1] != '\0' || !ParseMeta(meta_bytes, meta_size, &meta)) {
+      return Malformed(stats);
+    }
+    topic.assign(topic_bytes, topic_size - 1);
+
+    // handshake traffic is handled here and never reaches subscribers
+    if (topic == kHelloTopic) {
+      hello_from.insert(meta.publisher);
+      return false;
+    }
+    if (topic == kConfirmTopic) {
+      confirm_from.insert(meta.publisher);
+      return false;
+    }
+
+    auto& counters = stats.topics[topic];
+    ++counters.received;
+    auto [it, inserted] = seen.try_emplace({meta.publisher, topic}, meta.sequence);
+    if (meta.sequence > it->second) counters.lost += meta.sequence - it->second;
+    it->second = meta.sequence + 1;
+
+    const MessageInfo info{topic, meta.datatype, meta.md5, meta.publisher, meta.sequence, meta.sent_unix_ns};
+    for (const auto& sub : subscriptions) {
+      const bool match = sub.exact ? sub.topic == topic : topic.compare(0, sub.topic.size(), sub.topic) == 0;
+      if (!match) continue;
+      if (sub.type && (sub.type->datatype != meta.datatype || sub.type->md5 != meta.md5)) {
+        throw BusError("topic '" + topic + "': node '" + options.node_name + "' expects " +
+                       sub.type->datatype + " (md5 " + sub.type->md5 + ") but '" + meta.publisher +
+                       "' sends " + meta.datatype + " (md5 " + meta.md5 + ")");
+      }
+      sub.callback(payload, payload_size, info);
+    }
+    return true;
+  }
+
+  // shared memory: takes new subscribers and (re)connects to publishers, a few system calls each, so at
+  // most every millisecond unless `now`
+  void Maintain(bool now) {
+    const auto t = std::chrono::steady_clock::now();
+    if (!now && t < next_maintenance) return;
+    next_maintenance = t + std::chrono::milliseconds(1);
+    if (shm_publisher) shm_publisher->Accept();
+    if (shm_subscriber) shm_subscriber->Maintain();
+  }
+  // a process that only publishes takes its subscribers too
+  void AcceptSubscribers() {
+    const auto t = std::chrono::steady_clock::now();
+    if (t < next_accept) return;
+    next_accept = t + std::chrono::milliseconds(1);
+    shm_publisher->Accept();
   }
 
   // subscription notices arrive on the XPUB socket; they are only drained to bound its queue
@@ -104,17 +242,37 @@ Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
   sub.set(zmq::sockopt::linger, 0);
   sub.set(zmq::sockopt::reconnect_ivl, 10);  // peers may bind after we connect: retry quickly
   try {
-    pub.bind(options.bind_endpoint);
-  } catch (const zmq::error_t& e) {
+    if (internal::IsShmEndpoint(options.bind_endpoint)) {
+      impl_->shm_publisher = std::make_unique<internal::ShmPublisher>(
+          internal::ShmPublisher::Options{options.bind_endpoint, options.node_name,
+                                          options.shm_initial_queue_bytes, options.shm_max_queue_bytes});
+    } else {
+      pub.bind(options.bind_endpoint);
+    }
+  } catch (const std::exception& e) {
     throw BusError("node '" + options.node_name + "': cannot bind publisher to '" + options.bind_endpoint +
                    "': " + e.what());
   }
+  std::vector<std::string> shm_peers;
   for (const auto& endpoint : options.peer_endpoints) {
+    if (internal::IsShmEndpoint(endpoint)) {
+      shm_peers.push_back(endpoint);
+      continue;
+    }
     try {
       sub.connect(endpoint);
+      impl_->zmq_peers = true;
     } catch (const zmq::error_t& e) {
       throw BusError("node '" + options.node_name + "': cannot connect to '" + endpoint + "': " + e.what());
     }
+  }
+  if (!shm_peers.empty()) {
+    try {
+      impl_->shm_subscriber = std::make_unique<internal::ShmSubscriber>(options.node_name, shm_peers);
+    } catch (const std::exception& e) {
+      throw BusError("node '" + options.node_name + "': " + e.what());
+    }
+    impl_->Maintain(/*now=*/true);
   }
 }
 
@@ -128,7 +286,10 @@ int64_t UnixTimeNs() {
 
 const std::string& Bus::node_name() const { return impl_->options.node_name; }
 
-std::string Bus::bound_endpoint() const { return impl_->publisher.get(zmq::sockopt::last_endpoint); }
+std::string Bus::bound_endpoint() const {
+  if (impl_->shm_publisher) return impl_->options.bind_endpoint;
+  return impl_->publisher.get(zmq::sockopt::last_endpoint);
+}
 
 void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8_t* data, size_t size) {
   auto& impl = *impl_;
@@ -145,14 +306,37 @@ void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8
   meta.append(type.md5);
   AppendU16String(&meta, impl.options.node_name);
 
+  const auto deadline = std::chrono::steady_clock::now() + impl.options.block_timeout;
+  const bool block = impl.options.drop_policy == DropPolicy::kBlock;
+  if (impl.shm_publisher) {
+    impl.AcceptSubscribers();
+    const uint32_t sizes[2] = {static_cast<uint32_t>(topic.size() + 1), static_cast<uint32_t>(meta.size())};
+    const internal::ByteSpan parts[] = {{sizes, kRecordPrefixBytes},
+                                        {topic.c_str(), topic.size() + 1},
+                                        {meta.data(), meta.size()},
+                                        {data, size}};
+    bool delivered;
+    try {
+      delivered = impl.shm_publisher->Publish(std::string_view(topic.c_str(), topic.size() + 1), parts, 4,
+                                              block, deadline);
+    } catch (const std::runtime_error& e) {
+      throw BusError("node '" + impl.options.node_name + "', topic '" + topic + "': " + e.what());
+    }
+    // best effort: a subscriber that misses a message counts the gap itself, as with ZeroMQ
+    if (!delivered && block) {
+      ++counters.dropped;
+    } else {
+      ++counters.sent;
+    }
+    ++sequence;
+    return;
+  }
   // the topic frame ends in '\0' so that subscribing to "/a" does not also match "/ab"
   zmq::const_buffer topic_frame(topic.c_str(), topic.size() + 1);
-  const auto deadline = std::chrono::steady_clock::now() + impl.options.block_timeout;
   while (true) {
     const auto sent = impl.publisher.send(topic_frame, zmq::send_flags::sndmore | zmq::send_flags::dontwait);
     if (sent) break;
-    const bool can_wait =
-        impl.options.drop_policy == DropPolicy::kBlock && std::chrono::steady_clock::now() < deadline;
+    const bool can_wait = block && std::chrono::steady_clock::now() < deadline;
     if (!can_wait) {
       ++counters.dropped;
       ++sequence;  // the gap tells subscribers that something was lost
@@ -179,73 +363,51 @@ void Bus::SubscribeRaw(const std::string& prefix, RawCallback callback) {
 
 int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
   auto& impl = *impl_;
-  // syscalls are the cost of a message here (about 20 us each in a VM): subscription notices are drained
-  // now and then, and the socket is polled only when nothing is queued already
-  if (++impl.spins_since_drain >= 64) {
-    impl.DrainSubscriptionNotices();
-    impl.spins_since_drain = 0;
+  impl.Maintain(/*now=*/false);
+  int dispatched = impl.DrainQueued(stats_, max_batch);
+  if (dispatched > 0) return dispatched;
+
+  // shared memory: a message arrives without a system call, so look for one a little while before sleeping
+  // (a wake-up costs ~25 us in a VM); yield so that spinning never starves a process that has work
+  using SteadyClock = std::chrono::steady_clock;
+  const auto start = SteadyClock::now();
+  if (impl.shm_subscriber) {
+    const auto spin_end = start + std::min(timeout, impl.options.spin);
+    while (SteadyClock::now() < spin_end) {
+      if (impl.shm_subscriber->HasData()) return impl.DrainQueued(stats_, max_batch);
+      std::this_thread::yield();
+    }
   }
-  zmq::message_t topic_frame, meta_frame, payload;
-  if (!impl.subscriber.recv(topic_frame, zmq::recv_flags::dontwait)) {
-    const auto timeout_ms = std::chrono::duration_cast<std::chrono::milliseconds>(timeout);
-    if (!internal::PollOne(impl.subscriber, ZMQ_POLLIN, timeout_ms)) return 0;
-    if (!impl.subscriber.recv(topic_frame, zmq::recv_flags::dontwait)) return 0;
-  }
-
-  int dispatched = 0;
-  std::string topic;
-  Meta meta;
-  bool have_frame = true;
-  for (; have_frame && dispatched < max_batch;
-       have_frame = dispatched < max_batch && impl.subscriber.recv(topic_frame, zmq::recv_flags::dontwait)) {
-    // read the whole multipart message before judging it, so a bad one never desynchronises the stream
-    std::vector<zmq::message_t> extra;
-    bool complete = topic_frame.more() && impl.subscriber.recv(meta_frame) && meta_frame.more() &&
-                    impl.subscriber.recv(payload);
-    while (impl.subscriber.get(zmq::sockopt::rcvmore)) {
-      zmq::message_t rest;
-      (void)impl.subscriber.recv(rest);
-      complete = false;
-    }
-    if (!complete || topic_frame.size() == 0 ||
-        static_cast<const char*>(topic_frame.data())[topic_frame.size() - 1] != '\0' ||
-        !ParseMeta(meta_frame, &meta)) {
-      ++stats_.malformed;
-      continue;
-    }
-    topic.assign(static_cast<const char*>(topic_frame.data()), topic_frame.size() - 1);
-
-    // handshake traffic is handled here and never reaches subscribers
-    if (topic == kHelloTopic) {
-      impl.hello_from.insert(meta.publisher);
-      continue;
-    }
-    if (topic == kConfirmTopic) {
-      impl.confirm_from.insert(meta.publisher);
-      continue;
-    }
-
-    auto& counters = stats_.topics[topic];
-    ++counters.received;
-    auto [it, inserted] = impl.seen.try_emplace({meta.publisher, topic}, meta.sequence);
-    if (meta.sequence > it->second) counters.lost += meta.sequence - it->second;
-    it->second = meta.sequence + 1;
-
-    const MessageInfo info{topic, meta.datatype, meta.md5, meta.publisher, meta.sequence, meta.sent_unix_ns};
-    const auto* data = static_cast<const uint8_t*>(payload.data());
-    for (const auto& sub : impl.subscriptions) {
-      const bool match = sub.exact ? sub.topic == topic : topic.compare(0, sub.topic.size(), sub.topic) == 0;
-      if (!match) continue;
-      if (sub.type && (sub.type->datatype != meta.datatype || sub.type->md5 != meta.md5)) {
-        throw BusError("topic '" + topic + "': node '" + impl.options.node_name + "' expects " +
-                       sub.type->datatype + " (md5 " + sub.type->md5 + ") but '" + meta.publisher +
-                       "' sends " + meta.datatype + " (md5 " + meta.md5 + ")");
+  const auto left =
+      std::max(std::chrono::microseconds(0),
+               timeout - std::chrono::duration_cast<std::chrono::microseconds>(SteadyClock::now() - start));
+  auto& fds = impl.poll_fds;
+  fds.clear();
+  if (!impl.shm_subscriber || impl.shm_subscriber->PrepareSleep(&fds)) {
+    if (impl.shm_publisher) fds.push_back({impl.shm_publisher->listen_fd(), POLLIN, 0});
+    if (impl.zmq_peers) {
+      // syscalls are the cost of a message here (about 20 us each in a VM): subscription notices are
+      // drained now and then, and the socket is polled only when nothing is queued already
+      if (++impl.spins_since_drain >= 64) {
+        impl.DrainSubscriptionNotices();
+        impl.spins_since_drain = 0;
       }
-      sub.callback(data, payload.size(), info);
+      auto& items = impl.poll_items;
+      items.assign(1, zmq::pollitem_t{impl.subscriber.handle(), 0, ZMQ_POLLIN, 0});
+      for (const auto& fd : fds) items.push_back(zmq::pollitem_t{nullptr, fd.fd, ZMQ_POLLIN, 0});
+      try {
+        zmq::poll(items.data(), items.size(), std::chrono::duration_cast<std::chrono::milliseconds>(left));
+      } catch (const zmq::error_t& e) {
+        if (e.num() != EINTR) throw;  // a signal: the caller's loop sees the stop request
+      }
+    } else {
+      const timespec wait{static_cast<time_t>(left.count() / 1000000), static_cast<long>(left.count() % 1000000) * 1000};
+      ppoll(fds.data(), fds.size(), &wait, nullptr);
     }
-    ++dispatched;
+    if (impl.shm_subscriber) impl.shm_subscriber->WakeUp();
+    impl.Maintain(/*now=*/true);
   }
-  return dispatched;
+  return impl.DrainQueued(stats_, max_batch);
 }
 
 void Bus::BeginHandshake() {

@@ -1,19 +1,27 @@
 #pragma once
-// Publish/subscribe bus between iapsim processes. ZeroMQ stays behind this interface.
+// Publish/subscribe bus between iapsim processes. The transports stay behind this interface.
 //
 // Topology: every node binds one publisher endpoint and connects its subscriber to the endpoints of its
 // peers. All of a node's topics leave through that one publisher, so the messages of one node reach a
 // subscriber in the order they were sent, across topics (the lockstep protocol relies on it).
 //
-// Frames on the wire: [topic '\0'] [meta: version, per-topic sequence, send time, datatype, md5, publisher]
-// [payload].
+// Transports, by endpoint (a node may bind one kind and have peers of any kind):
+//   shm://NAME        same host, shared memory: a queue per (publisher, subscriber) pair that the subscriber
+//                     reads without a system call; Spin looks for messages for `spin` before it sleeps
+//   ipc://@NAME       same host, ZeroMQ over abstract unix sockets
+//   tcp://HOST:PORT   ZeroMQ over TCP, across hosts
 //
-// Queues and drops: each connection queues up to `send_hwm` messages at the publisher and `receive_hwm` at
-// the subscriber. When a subscriber's queue is full:
+// Frames on the wire: [topic '\0'] [meta: version, per-topic sequence, send time, datatype, md5, publisher]
+// [payload] (a shared-memory record holds the same three).
+//
+// Queues and drops: a ZeroMQ connection queues up to `send_hwm` messages at the publisher and `receive_hwm`
+// at the subscriber; a shared-memory queue starts at `shm_initial_queue_bytes` and doubles as needed up to
+// `shm_max_queue_bytes`. When a subscriber's queue is full:
 //   kDropNewest (best effort): that subscriber alone misses the message; it counts the gap in the per-topic
 //               sequence as lost, and every other subscriber is unaffected.
-//   kBlock (lossless, lockstep): the publisher waits up to `block_timeout` for room, then drops the message
-//               for everyone and counts it as dropped.
+//   kBlock (lossless, lockstep): the publisher waits up to `block_timeout` for room, then counts the
+//               message as dropped (ZeroMQ: nobody gets it; shared memory: the subscribers that were full
+//               miss it and see the gap).
 
 #include <chrono>
 #include <cstdint>
@@ -45,6 +53,9 @@ struct BusOptions {
   int receive_hwm = 10000;                  // messages queued per publisher at this subscriber
   DropPolicy drop_policy = DropPolicy::kBlock;
   std::chrono::milliseconds block_timeout{2000};
+  std::chrono::microseconds spin{50};         // shm peers: Spin polls the queues this long, then sleeps
+  size_t shm_initial_queue_bytes = 64 << 10;  // per subscriber of an shm:// publisher
+  size_t shm_max_queue_bytes = 64 << 20;      // a larger message is an error
 };
 
 struct TopicCounters {

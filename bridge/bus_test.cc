@@ -5,16 +5,28 @@
 #include <std_msgs/String.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <deque>
+#include <random>
 #include <thread>
+
+#include "bridge/internal/shm_transport.h"
 
 namespace iapsim::bridge {
 namespace {
 
 using std::chrono::milliseconds;
 
+// Every behaviour holds on each same-host transport: shared memory and ZeroMQ over unix sockets.
+class BusOn : public ::testing::TestWithParam<std::string> {};
+
 std::string UniqueEndpoint(const std::string& name) {
   const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-  return "ipc://@iapsim-test-" + std::to_string(getpid()) + "-" + test->name() + "-" + name;
+  std::string test_name = test->name();
+  std::replace(test_name.begin(), test_name.end(), '/', '-');
+  const std::string tag = "iapsim-test-" + std::to_string(getpid()) + "-" + test_name + "-" + name;
+  return test->value_param() && std::string(test->value_param()) == "\"shm\"" ? "shm://" + tag
+                                                                               : "ipc://@" + tag;
 }
 
 BusOptions Options(const std::string& name, const std::vector<std::string>& peers) {
@@ -41,7 +53,7 @@ void Handshake(Bus& a, Bus& b) {
   b.EndHandshake();
 }
 
-TEST(Bus, DeliversEveryMessageAfterHandshakeInOrder) {
+TEST_P(BusOn, DeliversEveryMessageAfterHandshakeInOrder) {
   Bus physics(Options("physics", {"control"}));
   Bus control(Options("control", {"physics"}));
   std::vector<uint64_t> steps;
@@ -68,7 +80,7 @@ TEST(Bus, DeliversEveryMessageAfterHandshakeInOrder) {
   EXPECT_EQ(control.stats().topics.at("/iap/state").lost, 0u);
 }
 
-TEST(Bus, ExactTopicDoesNotMatchLongerTopic) {
+TEST_P(BusOn, ExactTopicDoesNotMatchLongerTopic) {
   Bus a(Options("a", {"b"}));
   Bus b(Options("b", {"a"}));
   int exact = 0, prefixed = 0;
@@ -84,7 +96,7 @@ TEST(Bus, ExactTopicDoesNotMatchLongerTopic) {
   EXPECT_EQ(prefixed, 2);
 }
 
-TEST(Bus, RefusesTypeMismatchWithAClearError) {
+TEST_P(BusOn, RefusesTypeMismatchWithAClearError) {
   Bus a(Options("physics", {"control"}));
   Bus b(Options("control", {"physics"}));
   b.Subscribe<iapsim_msgs::IapState>("/iap/state", [](const iapsim_msgs::IapState&, const MessageInfo&) {});
@@ -105,9 +117,10 @@ TEST(Bus, RefusesTypeMismatchWithAClearError) {
 }
 
 // Best effort: a subscriber that does not keep up loses messages (and counts them); a fast one loses none.
-TEST(Bus, ASlowSubscriberLosesMessagesAloneAndCountsThem) {
+TEST_P(BusOn, ASlowSubscriberLosesMessagesAloneAndCountsThem) {
   auto options = Options("fast", {"slow", "quick"});
   options.send_hwm = 1000;  // with the slow subscriber's 10-message receive queue: ~1010 fit
+  options.shm_max_queue_bytes = 1 << 20;  // ~1000 of them
   options.drop_policy = DropPolicy::kDropNewest;
   Bus publisher(options);
   auto slow_options = Options("slow", {"fast"});
@@ -153,9 +166,10 @@ TEST(Bus, ASlowSubscriberLosesMessagesAloneAndCountsThem) {
 }
 
 // Lossless: with kBlock a full queue holds the publisher back; what cannot be sent in time is counted.
-TEST(Bus, BlockingPublisherCountsWhatItCouldNotSend) {
+TEST_P(BusOn, BlockingPublisherCountsWhatItCouldNotSend) {
   auto options = Options("fast", {"slow"});
   options.send_hwm = 10;
+  options.shm_max_queue_bytes = 1 << 20;  // ~10 of them
   options.drop_policy = DropPolicy::kBlock;
   options.block_timeout = milliseconds(20);
   Bus publisher(options);
@@ -178,7 +192,10 @@ TEST(Bus, BlockingPublisherCountsWhatItCouldNotSend) {
   EXPECT_EQ(received, counters.sent);
 }
 
-TEST(Bus, ReportsAnEndpointItCannotBind) {
+INSTANTIATE_TEST_SUITE_P(, BusOn, ::testing::Values("shm", "ipc"),
+                         [](const ::testing::TestParamInfo<std::string>& param) { return param.param; });
+
+TEST(BusEndpoints, ReportsAnEndpointItCannotBind) {
   BusOptions options;
   options.node_name = "bad";
   options.bind_endpoint = "tcp://not-an-address:xyz";
@@ -191,7 +208,7 @@ TEST(Bus, ReportsAnEndpointItCannotBind) {
   }
 }
 
-TEST(Bus, TcpLoopbackWithWildcardPort) {
+TEST(BusEndpoints, TcpLoopbackWithWildcardPort) {
   BusOptions a_options;
   a_options.node_name = "a";
   a_options.bind_endpoint = "tcp://127.0.0.1:*";
@@ -221,5 +238,160 @@ TEST(Bus, TcpLoopbackWithWildcardPort) {
   EXPECT_EQ(received, 1);
 }
 
+// Shared memory: a queue too small for a message grows; one larger than the largest queue is an error that
+// names the topic.
+TEST(BusShm, GrowsTheQueueForALargeMessageAndRefusesOneTooLarge) {
+  auto options = Options("camera", {"recorder"});
+  options.bind_endpoint = "shm://iapsim-test-" + std::to_string(getpid()) + "-grow-camera";
+  options.shm_max_queue_bytes = 4 << 20;
+  Bus camera(options);
+  auto recorder_options = Options("recorder", {});
+  recorder_options.peer_endpoints = {options.bind_endpoint};
+  Bus recorder(recorder_options);
+  std::vector<std::string> received;
+  recorder.Subscribe<std_msgs::String>("/image", [&](const std_msgs::String& m, const MessageInfo&) {
+    received.push_back(m.data);
+  });
+  Handshake(camera, recorder);
+  std_msgs::String image;
+  const std::vector<size_t> sizes = {1000, 1500000, 10};  // the initial queue is 64 KiB
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    image.data.assign(sizes[i], static_cast<char>('a' + i));
+    camera.Publish("/image", image);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (received.size() < 3 && std::chrono::steady_clock::now() < deadline) recorder.Spin(milliseconds(10));
+  ASSERT_EQ(received.size(), 3u);
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    EXPECT_EQ(received[i].size(), sizes[i]);
+    EXPECT_TRUE(received[i] == std::string(sizes[i], static_cast<char>('a' + i))) << "message " << i;
+  }
+  image.data.assign(3000000, 'x');
+  try {
+    camera.Publish("/image", image);
+    FAIL() << "a message larger than the largest queue was accepted";
+  } catch (const BusError& e) {
+    EXPECT_NE(std::string(e.what()).find("/image"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("4 MiB"), std::string::npos) << e.what();
+  }
+}
+
+// A subscriber asleep in Spin is woken by the publisher, not by its timeout.
+TEST(BusShm, WakesASleepingSubscriber) {
+  auto publisher_options = Options("pub", {});
+  publisher_options.bind_endpoint = "shm://iapsim-test-" + std::to_string(getpid()) + "-wake-pub";
+  Bus publisher(publisher_options);
+  auto subscriber_options = Options("sub", {});
+  subscriber_options.peer_endpoints = {publisher_options.bind_endpoint};
+  subscriber_options.spin = std::chrono::microseconds(0);
+  Bus subscriber(subscriber_options);
+  int received = 0;
+  subscriber.SubscribeRaw("/t", [&](const uint8_t*, size_t, const MessageInfo&) { ++received; });
+  subscriber.BeginHandshake();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (!subscriber.HandshakeComplete({"pub"})) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "handshake did not complete";
+    publisher.PublishHello();
+    subscriber.Spin(milliseconds(2));
+  }
+  subscriber.EndHandshake();
+  for (int i = 0; i < 20; ++i) {
+    std::thread later([&] {
+      std::this_thread::sleep_for(milliseconds(5));
+      std_msgs::String s;
+      publisher.Publish("/t", s);
+    });
+    const auto start = std::chrono::steady_clock::now();
+    while (received <= i && std::chrono::steady_clock::now() - start < std::chrono::seconds(2)) {
+      subscriber.Spin(std::chrono::seconds(2));
+    }
+    const auto waited = std::chrono::steady_clock::now() - start;
+    later.join();
+    ASSERT_EQ(received, i + 1);
+    EXPECT_LT(waited, milliseconds(500)) << "woken by the timeout, not by the message";
+  }
+}
+
+// Processes come and go: a subscriber that starts after its publisher gets its messages, and it reconnects
+// to a publisher that restarted.
+TEST(BusShm, ASubscriberJoinsLateAndReconnectsToARestartedPublisher) {
+  const std::string endpoint = "shm://iapsim-test-" + std::to_string(getpid()) + "-restart-pub";
+  auto publisher_options = Options("pub", {});
+  publisher_options.bind_endpoint = endpoint;
+  auto subscriber_options = Options("sub", {});
+  subscriber_options.peer_endpoints = {endpoint};
+  std::vector<std::string> received;
+  auto publish_until_received = [&](Bus& publisher, Bus& subscriber, const std::string& text) {
+    std_msgs::String s;
+    s.data = text;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while ((received.empty() || received.back() != text) && std::chrono::steady_clock::now() < deadline) {
+      publisher.Publish("/t", s);
+      subscriber.Spin(milliseconds(5));
+    }
+    ASSERT_FALSE(received.empty());
+    EXPECT_EQ(received.back(), text);
+  };
+  auto publisher = std::make_unique<Bus>(publisher_options);
+  std_msgs::String early;
+  publisher->Publish("/t", early);  // nobody listens yet
+  Bus subscriber(subscriber_options);
+  subscriber.Subscribe<std_msgs::String>(
+      "/t", [&](const std_msgs::String& m, const MessageInfo&) { received.push_back(m.data); });
+  publish_until_received(*publisher, subscriber, "first");
+  publisher.reset();
+  subscriber.Spin(milliseconds(20));  // sees the hang-up
+  publisher = std::make_unique<Bus>(publisher_options);
+  publish_until_received(*publisher, subscriber, "after restart");
+}
+
 }  // namespace
+
+namespace internal {
+namespace {
+
+// The queue keeps records whole and in order across many laps of its memory, and hands over to a successor.
+TEST(ShmQueue, KeepsRecordsInOrderAcrossWrapAroundAndMoves) {
+  auto writer = ShmQueue::Create(4096);
+  auto reader = ShmQueue::Open(dup(writer->fd()));
+  std::mt19937 random(7);
+  std::uniform_int_distribution<size_t> size(0, writer->MaxRecordBytes());
+  std::deque<std::string> sent;
+  uint64_t received = 0;
+  auto read_all = [&] {
+    const uint8_t* data;
+    size_t n;
+    while (reader->Peek(&data, &n) == ShmQueue::Next::kRecord) {
+      ASSERT_FALSE(sent.empty());
+      ASSERT_EQ(std::string(reinterpret_cast<const char*>(data), n), sent.front()) << "record " << received;
+      sent.pop_front();
+      reader->Pop();
+      ++received;
+    }
+  };
+  for (int i = 0; i < 2000; ++i) {
+    std::string record(size(random), static_cast<char>('a' + i % 26));
+    const ByteSpan parts[] = {{record.data(), record.size() / 2},
+                              {record.data() + record.size() / 2, record.size() - record.size() / 2}};
+    if (!writer->TryWrite(parts, 2)) {
+      read_all();
+      ASSERT_TRUE(writer->TryWrite(parts, 2)) << "an empty queue refused a record it can take";
+    }
+    sent.push_back(record);
+  }
+  read_all();
+  EXPECT_EQ(received, 2000u);
+  EXPECT_FALSE(reader->HasData());
+
+  const std::string big(writer->MaxRecordBytes() + 1, 'x');
+  const ByteSpan too_big{big.data(), big.size()};
+  EXPECT_FALSE(writer->TryWrite(&too_big, 1));
+  writer->WriteMoved();
+  const uint8_t* data;
+  size_t n;
+  EXPECT_EQ(reader->Peek(&data, &n), ShmQueue::Next::kMoved);
+}
+
+}  // namespace
+}  // namespace internal
 }  // namespace iapsim::bridge

@@ -97,6 +97,9 @@ class Runtime {
     }
     options.send_hwm = scenario.bus.send_hwm;
     options.receive_hwm = scenario.bus.receive_hwm;
+    // realtime: the wall clock paces the run, so waiting processes sleep at once and leave the CPU to work
+    options.spin = std::chrono::microseconds(scenario.mode == ClockMode::kRealtime ? 0 : scenario.bus.spin_us);
+    options.shm_max_queue_bytes = static_cast<size_t>(scenario.bus.shm_queue_max_mib) << 20;
     // lockstep never lets queues fill; elsewhere a slow subscriber must not stall the clock
     options.drop_policy =
         scenario.mode == ClockMode::kLockstep ? DropPolicy::kBlock : DropPolicy::kDropNewest;

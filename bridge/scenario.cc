@@ -138,10 +138,12 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
   }
 
   YamlMap bus = top.Map("bus");
-  bus.OptionalChoice("transport", &s.bus.transport, {"ipc", "tcp"});
+  bus.OptionalChoice("transport", &s.bus.transport, {"shm", "ipc", "tcp"});
   bus.OptionalInRange("tcp_base_port", &s.bus.tcp_base_port, 1024, 65000);
   bus.OptionalInRange("send_hwm", &s.bus.send_hwm, 1, 10000000);
   bus.OptionalInRange("receive_hwm", &s.bus.receive_hwm, 1, 10000000);
+  bus.OptionalInRange("spin_us", &s.bus.spin_us, 0, 100000);
+  bus.OptionalInRange("shm_queue_max_mib", &s.bus.shm_queue_max_mib, 1, 4096);
   bus.Optional("control_endpoint", &s.bus.control_endpoint);
   YamlMap endpoints = bus.Map("endpoints");
   for (const auto& process : endpoints.Keys()) endpoints.Required(process, &s.bus.endpoints[process]);
@@ -236,11 +238,13 @@ void AssignEndpoints(Scenario* scenario, const std::string& run_id) {
   YAML::Node endpoints(YAML::NodeType::Map);
   int index = 0;
   for (const auto& p : scenario->processes) {
-    // abstract unix sockets: no files left behind, no path-length limit from a deep run directory
+    // shm and ipc name abstract unix sockets: no files left behind, no path-length limit from a deep run
+    // directory
+    const std::string& transport = scenario->bus.transport;
     const std::string endpoint =
-        scenario->bus.transport == "tcp"
-            ? "tcp://127.0.0.1:" + std::to_string(scenario->bus.tcp_base_port + index)
-            : "ipc://@iapsim-" + run_id + "-" + p.name;
+        transport == "tcp"   ? "tcp://127.0.0.1:" + std::to_string(scenario->bus.tcp_base_port + index)
+        : transport == "shm" ? "shm://iapsim-" + run_id + "-" + p.name
+                             : "ipc://@iapsim-" + run_id + "-" + p.name;
     scenario->bus.endpoints[p.name] = endpoint;
     endpoints[p.name] = endpoint;
     ++index;

@@ -31,10 +31,12 @@ struct ClockConfig {
 };
 
 struct BusConfig {
-  std::string transport = "ipc";  // ipc (abstract unix sockets) or tcp (loopback)
+  std::string transport = "shm";  // shm (shared memory), ipc (ZeroMQ, unix sockets), tcp (ZeroMQ, loopback)
   int tcp_base_port = 17500;      // tcp: process i binds tcp_base_port + i
-  int send_hwm = 10000;
+  int send_hwm = 10000;           // ipc, tcp: messages queued per connection
   int receive_hwm = 10000;
+  int spin_us = 200;  // shm, lockstep/fast: how long a waiting process looks for a message before it sleeps
+  int shm_queue_max_mib = 64;     // shm: the most a connection queues (and the largest message)
   // written by the launcher into scenario.resolved.yaml, so a process restarts from that file alone
   std::map<std::string, std::string> endpoints;  // process -> its publisher endpoint
   std::string control_endpoint;                  // the launcher's control socket

@@ -87,7 +87,9 @@ void ExpectStampedByPhysics(const RecordedImages& run) {
     for (size_t i = 0; i < stamps.size(); ++i) {
       EXPECT_TRUE(run.state_stamps_ns.count(stamps[i]))
           << eye << " image " << i << " at " << stamps[i] << " ns: no physics state has that stamp";
-      if (i > 0) EXPECT_GT(stamps[i], stamps[i - 1]) << eye;
+      if (i > 0) {
+        EXPECT_GT(stamps[i], stamps[i - 1]) << eye;
+      }
     }
     EXPECT_EQ(run.info_stamps_ns.at(eye), stamps) << eye << ": one CameraInfo per image, same stamp";
   }
