@@ -325,6 +325,8 @@ void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8
     // best effort: a subscriber that misses a message counts the gap itself, as with ZeroMQ
     if (!delivered && block) {
       ++counters.dropped;
+      spdlog::warn("node '{}': dropped a message on '{}': {} did not read for {} ms", impl.options.node_name,
+                   topic, impl.shm_publisher->stalled(), impl.options.block_timeout.count());
     } else {
       ++counters.sent;
     }

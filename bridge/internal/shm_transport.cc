@@ -390,19 +390,23 @@ void ShmPublisher::Accept() {
     }
     links_.push_back(std::move(link));
   }
-  // a subscriber never writes: a readable socket means it hung up
-  std::vector<pollfd> fds;
-  for (const auto& link : links_) fds.push_back({link.fd, POLLIN, 0});
-  if (!fds.empty() && poll(fds.data(), fds.size(), 0) > 0) {
-    for (size_t i = 0; i < fds.size(); ++i) {
-      if (fds[i].revents != 0) links_[i].dead = true;
-    }
-  }
+  MarkHungUp();
   for (auto& link : links_) {
     if (link.dead) close(link.fd);
   }
   links_.erase(std::remove_if(links_.begin(), links_.end(), [](const Link& l) { return l.dead; }),
                links_.end());
+}
+
+void ShmPublisher::MarkHungUp() {
+  // a subscriber never writes: a readable socket means it hung up
+  poll_fds_.clear();
+  for (const auto& link : links_) poll_fds_.push_back({link.fd, POLLIN, 0});
+  if (!poll_fds_.empty() && poll(poll_fds_.data(), poll_fds_.size(), 0) > 0) {
+    for (size_t i = 0; i < poll_fds_.size(); ++i) {
+      if (poll_fds_[i].revents != 0) links_[i].dead = true;
+    }
+  }
 }
 
 bool ShmPublisher::Wants(Link& link, std::string_view topic) {
@@ -464,8 +468,14 @@ bool ShmPublisher::Publish(std::string_view topic, const ByteSpan* parts, int co
         }
       }
       if (remaining == 0) break;
-      if (SteadyClock::now() > deadline) return false;
-      Accept();  // notices a subscriber that died while we wait for it
+      if (SteadyClock::now() > deadline) {
+        stalled_.clear();
+        for (size_t i = 0; i < targets_.size(); ++i) {
+          if (!written[i]) stalled_ += (stalled_.empty() ? "'" : ", '") + targets_[i]->subscriber + "'";
+        }
+        return false;
+      }
+      MarkHungUp();  // a subscriber that died while we wait for it (links_ must not change: targets_)
       std::this_thread::sleep_for(std::chrono::microseconds(20));
     }
     return true;

@@ -129,6 +129,8 @@ class ShmPublisher {
   /// queue can take.
   bool Publish(std::string_view topic, const ByteSpan* parts, int count, bool block,
                SteadyClock::time_point deadline);
+  /// After a blocking Publish returned false: the subscribers whose queues stayed full, quoted.
+  const std::string& stalled() const { return stalled_; }
 
  private:
   struct Link {
@@ -139,6 +141,7 @@ class ShmPublisher {
     std::string subscriber;
     bool dead = false;
   };
+  void MarkHungUp();
   bool Wants(Link& link, std::string_view topic);
   void Grow(Link& link, size_t record_bytes);
   void Wake(Link& link);
@@ -147,6 +150,8 @@ class ShmPublisher {
   int listen_fd_ = -1;
   std::vector<Link> links_;
   std::vector<Link*> targets_;
+  std::vector<pollfd> poll_fds_;
+  std::string stalled_;
 };
 
 /// The subscriber end: one connection per publisher endpoint, (re)connected as publishers come and go.
