@@ -329,7 +329,7 @@ class GlRenderer final : public Renderer {
       gl_.ActiveTexture(GL_TEXTURE2);
       gl_.BindTexture(GL_TEXTURE_2D, body_shadow_.texture);
     }
-    for (std::size_t o = 0; o < scene_.objects.size(); ++o) DrawObject(o);
+    for (const std::size_t o : FrontToBack(X_WC.translation())) DrawObject(o);
     ReadBack(k.width, k.height, rgb, depth);
     CheckError("rendering");
   }
@@ -476,6 +476,21 @@ class GlRenderer final : public Renderer {
     Eigen::Matrix4d X_WO = (X_WB * object.X_BO).matrix();
     X_WO.block<3, 3>(0, 0) *= object.scale.asDiagonal();
     return X_WO;
+  }
+
+  // Objects by the distance of their farthest extent from the eye: what lies wholly near comes first, so the
+  // depth test rejects the pixels it hides before they are shaded (llvmpipe tests depth ahead of the shader);
+  // the ground, reaching far away, comes last.
+  const std::vector<std::size_t>& FrontToBack(const Eigen::Vector3d& eye_W) {
+    draw_keys_.clear();
+    for (std::size_t o = 0; o < scene_.objects.size(); ++o) {
+      const Eigen::Vector3d origin_W = ObjectToWorld(o).block<3, 1>(0, 3);
+      draw_keys_.emplace_back((origin_W - eye_W).norm() + object_radius_m_[o], o);
+    }
+    std::sort(draw_keys_.begin(), draw_keys_.end());
+    draw_order_.clear();
+    for (const auto& key : draw_keys_) draw_order_.push_back(key.second);
+    return draw_order_;
   }
 
   bool HasBodyCasters() const {
@@ -630,6 +645,8 @@ class GlRenderer final : public Renderer {
   std::vector<Eigen::Isometry3d> X_WB_;
   std::vector<int> object_body_;         // body index per object, −1: fixed in W
   std::vector<double> object_radius_m_;  // per object: its mesh's farthest vertex from O, scaled
+  std::vector<std::pair<double, std::size_t>> draw_keys_;  // FrontToBack's scratch
+  std::vector<std::size_t> draw_order_;
   std::map<std::pair<int, int>, Target> targets_;
   ShadowMap fixed_shadow_, body_shadow_;
   bool fixed_shadow_dirty_ = true, body_shadow_dirty_ = true;
