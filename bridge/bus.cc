@@ -243,9 +243,8 @@ Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
   sub.set(zmq::sockopt::reconnect_ivl, 10);  // peers may bind after we connect: retry quickly
   try {
     if (internal::IsShmEndpoint(options.bind_endpoint)) {
-      impl_->shm_publisher = std::make_unique<internal::ShmPublisher>(
-          internal::ShmPublisher::Options{options.bind_endpoint, options.node_name,
-                                          options.shm_initial_queue_bytes, options.shm_max_queue_bytes});
+      impl_->shm_publisher = std::make_unique<internal::ShmPublisher>(internal::ShmPublisher::Options{
+          options.bind_endpoint, options.shm_initial_queue_bytes, options.shm_max_queue_bytes});
     } else {
       pub.bind(options.bind_endpoint);
     }
@@ -366,6 +365,12 @@ void Bus::SubscribeRaw(const std::string& prefix, RawCallback callback) {
 int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
   auto& impl = *impl_;
   impl.Maintain(/*now=*/false);
+  // a ZeroMQ publisher's subscription notices are only drained to bound their queue; now and then, as each
+  // is a system call (about 20 us in a VM)
+  if (!impl.shm_publisher && ++impl.spins_since_drain >= 64) {
+    impl.DrainSubscriptionNotices();
+    impl.spins_since_drain = 0;
+  }
   int dispatched = impl.DrainQueued(stats_, max_batch);
   if (dispatched > 0) return dispatched;
 
@@ -388,12 +393,6 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
   if (!impl.shm_subscriber || impl.shm_subscriber->PrepareSleep(&fds)) {
     if (impl.shm_publisher) fds.push_back({impl.shm_publisher->listen_fd(), POLLIN, 0});
     if (impl.zmq_peers) {
-      // syscalls are the cost of a message here (about 20 us each in a VM): subscription notices are
-      // drained now and then, and the socket is polled only when nothing is queued already
-      if (++impl.spins_since_drain >= 64) {
-        impl.DrainSubscriptionNotices();
-        impl.spins_since_drain = 0;
-      }
       auto& items = impl.poll_items;
       items.assign(1, zmq::pollitem_t{impl.subscriber.handle(), 0, ZMQ_POLLIN, 0});
       for (const auto& fd : fds) items.push_back(zmq::pollitem_t{nullptr, fd.fd, ZMQ_POLLIN, 0});

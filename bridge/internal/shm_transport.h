@@ -112,7 +112,6 @@ class ShmPublisher {
  public:
   struct Options {
     std::string endpoint;  // shm://NAME
-    std::string node;
     size_t initial_queue_bytes = 64 << 10;
     size_t max_queue_bytes = 64 << 20;
   };
