@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <stdexcept>
@@ -22,7 +23,19 @@ using internal::GlFunctions;
 // The shadow map of the objects on bodies: over a vehicle's few metres, 1024 texels give millimetre texels.
 constexpr int kBodyShadowResolution = 1024;
 
-constexpr char kSceneVertexShader[] = R"(#version 330 core
+// The scene shaders are compiled per combination of the features a draw needs (ShaderFeature): llvmpipe
+// runs both sides of every branch under a mask, so a uniform that switches a shadow tap or a texture off
+// saves nothing, and only leaving the code out does. Each source is prefixed with its #defines.
+enum ShaderFeature : unsigned {
+  kTextured = 1u << 0,
+  kLit = 1u << 1,           // not unlit: the sun, ambient light and fog apply
+  kSpecular = 1u << 2,      // a highlight (specular > 0)
+  kFog = 1u << 3,           // fog density > 0
+  kFixedShadows = 1u << 4,  // receives the shadows of the objects fixed in W
+  kBodyShadows = 1u << 5,   // receives the shadows of the objects on bodies
+};
+
+constexpr char kSceneVertexShader[] = R"(
 layout(location = 0) in vec3 position_O;
 layout(location = 1) in vec3 normal_O;
 layout(location = 2) in vec2 uv_in;
@@ -30,10 +43,25 @@ uniform mat4 X_WO;        // scale included
 uniform mat3 normal_W_O;  // inverse transpose of X_WO's linear part
 uniform mat4 X_CW;
 uniform mat4 clip_C;
+uniform vec3 eye_W;
+uniform mat4 light_clip_W;
+uniform float shadow_texel_m;
+uniform mat4 body_light_clip_W;
+uniform float body_shadow_texel_m;
 out vec3 p_W;
 out vec3 n_W;
 out vec2 uv;
 out float z_C;
+out vec3 shadow_uvz;       // the point in the shadow maps' texture coordinates and depth
+out vec3 body_shadow_uvz;
+
+// Offset along the normal by a texel and a half (no self-shadow acne at grazing sun), toward the eye's
+// side (two-sided lighting). Both maps are orthographic, so these are affine in the position and exact
+// per vertex on a flat face: the fragments interpolate them instead of transforming per pixel.
+vec3 ShadowUvz(mat4 light_clip, float texel_m, vec3 n_toward_eye) {
+  return (light_clip * vec4(p_W + n_toward_eye * (1.5 * texel_m), 1.0)).xyz * 0.5 + 0.5;
+}
+
 void main() {
   vec4 p = X_WO * vec4(position_O, 1.0);
   p_W = p.xyz;
@@ -42,31 +70,33 @@ void main() {
   vec4 p_C = X_CW * p;
   z_C = p_C.z;
   gl_Position = clip_C * p_C;
+  vec3 n = normalize(n_W);
+  if (dot(n, eye_W - p_W) < 0.0) n = -n;
+#ifdef FIXED_SHADOWS
+  shadow_uvz = ShadowUvz(light_clip_W, shadow_texel_m, n);
+#endif
+#ifdef BODY_SHADOWS
+  body_shadow_uvz = ShadowUvz(body_light_clip_W, body_shadow_texel_m, n);
+#endif
 }
 )";
 
-constexpr char kSceneFragmentShader[] = R"(#version 330 core
+constexpr char kSceneFragmentShader[] = R"(
 in vec3 p_W;
 in vec3 n_W;
 in vec2 uv;
 in float z_C;
+in vec3 shadow_uvz;
+in vec3 body_shadow_uvz;
 uniform vec3 albedo;         // linear
-uniform bool has_texture;
 uniform sampler2D albedo_texture;  // sRGB texels, decoded to linear by the sampler
-uniform bool unlit;
 uniform float specular;
 uniform float shininess;
 uniform vec3 to_sun_W;
 uniform vec3 sun;            // linear irradiance
 uniform vec3 ambient;        // linear irradiance
-uniform bool shadows;                   // of the objects fixed in W (drawn once per scene)
-uniform sampler2DShadow shadow_map;
-uniform mat4 light_clip_W;
-uniform float shadow_texel_m;
-uniform bool body_shadows;              // of the objects on moving bodies (drawn every frame they move)
-uniform sampler2DShadow body_shadow_map;
-uniform mat4 body_light_clip_W;
-uniform float body_shadow_texel_m;
+uniform sampler2DShadow shadow_map;       // of the objects fixed in W (drawn once per scene)
+uniform sampler2DShadow body_shadow_map;  // of the objects on moving bodies (drawn every frame they move)
 uniform vec3 eye_W;
 uniform float fog_density;
 uniform vec3 fog_color;      // linear
@@ -79,50 +109,51 @@ vec3 EncodeSrgb(vec3 c) {
   return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
 }
 
-// the fraction of the sun reaching p past one shadow map: one tap of the hardware's 2x2 filtered compare
-// (on llvmpipe each tap costs about as much as the rest of the shading)
-float Visible(sampler2DShadow map, mat4 clip_W, float texel_m, vec3 p, vec3 n) {
-  // offset along the normal by a texel and a half: no self-shadow acne at grazing sun
-  vec4 q = clip_W * vec4(p + n * (1.5 * texel_m), 1.0);
-  vec3 s = q.xyz / q.w * 0.5 + 0.5;
-  if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
-  return texture(map, s);
-}
-
-float SunVisible(vec3 p, vec3 n) {
+// the fraction of the sun reaching the point: one tap of the hardware's 2x2 filtered compare per map
+// (outside a map its border, depth 1, leaves the point lit)
+float SunVisible() {
   float visible = 1.0;
-  if (shadows) visible = Visible(shadow_map, light_clip_W, shadow_texel_m, p, n);
-  if (body_shadows) visible = min(visible, Visible(body_shadow_map, body_light_clip_W, body_shadow_texel_m, p, n));
+#ifdef FIXED_SHADOWS
+  visible = texture(shadow_map, vec3(shadow_uvz.xy, min(shadow_uvz.z, 1.0)));
+#endif
+#ifdef BODY_SHADOWS
+  visible = min(visible, texture(body_shadow_map, vec3(body_shadow_uvz.xy, min(body_shadow_uvz.z, 1.0))));
+#endif
   return visible;
 }
 
 void main() {
-  vec3 base = albedo;
-  if (has_texture) base *= texture(albedo_texture, uv).rgb;
-  vec3 radiance = base;
-  if (!unlit) {
-    vec3 to_eye = normalize(eye_W - p_W);
-    vec3 n = normalize(n_W);
-    if (dot(n, to_eye) < 0.0) n = -n;  // two-sided: meshes of either winding
-    float n_dot_l = dot(n, to_sun_W);
-    float lit = n_dot_l > 0.0 ? SunVisible(p_W, n) * n_dot_l : 0.0;
-    float highlight = n_dot_l > 0.0 ? specular * pow(max(dot(n, normalize(to_sun_W + to_eye)), 0.0), shininess) : 0.0;
-    radiance = base * (ambient + lit * sun) + highlight * (lit > 0.0 ? 1.0 : 0.0) * sun;
-    float haze = 1.0 - exp(-fog_density * length(eye_W - p_W));
-    radiance = mix(radiance, fog_color, haze);
-  }
+  vec3 radiance = albedo;
+#ifdef TEXTURED
+  radiance *= texture(albedo_texture, uv).rgb;
+#endif
+#ifdef LIT
+  vec3 to_eye = normalize(eye_W - p_W);
+  vec3 n = normalize(n_W);
+  if (dot(n, to_eye) < 0.0) n = -n;  // two-sided: meshes of either winding
+  float n_dot_l = dot(n, to_sun_W);
+  float lit = n_dot_l > 0.0 ? SunVisible() * n_dot_l : 0.0;
+  radiance *= ambient + lit * sun;
+#ifdef SPECULAR
+  float highlight = specular * pow(max(dot(n, normalize(to_sun_W + to_eye)), 0.0), shininess);
+  radiance += (lit > 0.0 ? highlight : 0.0) * sun;
+#endif
+#ifdef FOG
+  radiance = mix(radiance, fog_color, 1.0 - exp(-fog_density * length(eye_W - p_W)));
+#endif
+#endif
   color_out = vec4(EncodeSrgb(radiance * exposure), 1.0);
   depth_out = z_C;
 }
 )";
 
-constexpr char kShadowVertexShader[] = R"(#version 330 core
+constexpr char kShadowVertexShader[] = R"(
 layout(location = 0) in vec3 position_O;
 uniform mat4 light_clip_O;
 void main() { gl_Position = light_clip_O * vec4(position_O, 1.0); }
 )";
 
-constexpr char kShadowFragmentShader[] = R"(#version 330 core
+constexpr char kShadowFragmentShader[] = R"(
 void main() {}
 )";
 
@@ -135,12 +166,16 @@ Eigen::Vector3f Linear(const Eigen::Vector3f& srgb) {
   return Eigen::Vector3f(SrgbToLinear(srgb.x()), SrgbToLinear(srgb.y()), SrgbToLinear(srgb.z()));
 }
 
-// A linked program and the locations of its uniforms (−1 for one the compiler dropped).
+// A linked program and the locations of its uniforms (−1 for one the compiler dropped). `defines` go
+// between the #version line and each source.
 class Program {
  public:
-  Program(const GlFunctions& gl, const char* vertex, const char* fragment, const char* name) : gl_(gl) {
-    const GLuint vs = Compile(GL_VERTEX_SHADER, vertex, name);
-    const GLuint fs = Compile(GL_FRAGMENT_SHADER, fragment, name);
+  Program(const GlFunctions& gl, const char* vertex, const char* fragment, const std::string& defines,
+          const char* name)
+      : gl_(gl) {
+    const std::string prefix = "#version 330 core\n" + defines;
+    const GLuint vs = Compile(GL_VERTEX_SHADER, prefix, vertex, name);
+    const GLuint fs = Compile(GL_FRAGMENT_SHADER, prefix, fragment, name);
     id_ = gl_.CreateProgram();
     gl_.AttachShader(id_, vs);
     gl_.AttachShader(id_, fs);
@@ -173,9 +208,10 @@ class Program {
   void Set(const char* uniform, int value) { gl_.Uniform1i(Location(uniform), value); }
 
  private:
-  GLuint Compile(GLenum stage, const char* source, const char* name) {
+  GLuint Compile(GLenum stage, const std::string& prefix, const char* source, const char* name) {
     const GLuint shader = gl_.CreateShader(stage);
-    gl_.ShaderSource(shader, 1, &source, nullptr);
+    const char* sources[] = {prefix.c_str(), source};
+    gl_.ShaderSource(shader, 2, sources, nullptr);
     gl_.CompileShader(shader);
     ThrowUnless(gl_.GetShaderiv, gl_.GetShaderInfoLog, shader, GL_COMPILE_STATUS,
                 std::string("a ") + name + " shader does not compile");
@@ -211,8 +247,7 @@ class GlRenderer final : public Renderer {
                                std::to_string(major) + "." + std::to_string(minor) + ", 3.3 core is needed");
     }
     description_ = context_->BackendName() + ": " + String(GL_RENDERER) + ", OpenGL " + String(GL_VERSION);
-    scene_program_ = std::make_unique<Program>(gl_, kSceneVertexShader, kSceneFragmentShader, "scene");
-    shadow_program_ = std::make_unique<Program>(gl_, kShadowVertexShader, kShadowFragmentShader, "shadow");
+    shadow_program_ = std::make_unique<Program>(gl_, kShadowVertexShader, kShadowFragmentShader, "", "shadow");
     CheckError("setting up");
   }
 
@@ -220,7 +255,7 @@ class GlRenderer final : public Renderer {
     context_->MakeCurrent();
     ReleaseScene();
     ReleaseTargets();
-    scene_program_.reset();
+    scene_programs_.clear();
     shadow_program_.reset();
   }
 
@@ -300,36 +335,22 @@ class GlRenderer final : public Renderer {
     }
     gl_.Clear(GL_DEPTH_BUFFER_BIT);
 
-    Program& p = *scene_program_;
-    gl_.UseProgram(p.id());
-    const Eigen::Isometry3d X_CW = X_WC.inverse();
-    p.Set("X_CW", Eigen::Matrix4f(X_CW.matrix().cast<float>()));
-    p.Set("clip_C", Eigen::Matrix4f(ClipFromOptical(camera).cast<float>()));
-    p.Set("eye_W", Eigen::Vector3f(X_WC.translation().cast<float>()));
-    p.Set("to_sun_W", Eigen::Vector3f((-scene_.sun.direction_W.normalized()).cast<float>()));
-    p.Set("sun", Eigen::Vector3f(Linear(scene_.sun.color) * scene_.sun.intensity));
-    p.Set("ambient", Eigen::Vector3f(Linear(scene_.ambient_color) * scene_.ambient_intensity));
-    p.Set("fog_density", scene_.fog.density_per_m);
-    p.Set("fog_color", Linear(scene_.fog.color));
-    p.Set("exposure", exposure);
-    p.Set("albedo_texture", 0);
-    p.Set("shadows", scene_.sun.shadows ? 1 : 0);
-    p.Set("shadow_map", 1);
-    p.Set("body_shadows", body_shadows ? 1 : 0);
-    p.Set("body_shadow_map", 2);
+    // what every program drawing this image needs; each program takes them at its first draw (UseProgram)
+    ++image_serial_;
+    ImageUniforms& u = image_uniforms_;
+    u.X_CW = X_WC.inverse().matrix().cast<float>();
+    u.clip_C = ClipFromOptical(camera).cast<float>();
+    u.eye_W = X_WC.translation().cast<float>();
+    u.exposure = exposure;
     if (scene_.sun.shadows) {
-      p.Set("light_clip_W", Eigen::Matrix4f(fixed_shadow_.light_clip_W.cast<float>()));
-      p.Set("shadow_texel_m", static_cast<float>(fixed_shadow_.texel_m));
       gl_.ActiveTexture(GL_TEXTURE1);
       gl_.BindTexture(GL_TEXTURE_2D, fixed_shadow_.texture);
     }
     if (body_shadows) {
-      p.Set("body_light_clip_W", Eigen::Matrix4f(body_shadow_.light_clip_W.cast<float>()));
-      p.Set("body_shadow_texel_m", static_cast<float>(body_shadow_.texel_m));
       gl_.ActiveTexture(GL_TEXTURE2);
       gl_.BindTexture(GL_TEXTURE_2D, body_shadow_.texture);
     }
-    for (const std::size_t o : FrontToBack(X_WC.translation())) DrawObject(o);
+    for (const std::size_t o : FrontToBack(X_WC.translation())) DrawObject(o, body_shadows);
     ReadBack(k.width, k.height, rgb, depth);
     CheckError("rendering");
   }
@@ -522,6 +543,7 @@ class GlRenderer final : public Renderer {
     // the receivers: anything below the casters within the fixed map's reach
     const double beyond_m = r + 4.0 * scene_.sun.shadow_radius_m;
     RenderShadowMap(&body_shadow_, kBodyShadowResolution, casters_W.center(), r, r, beyond_m, true);
+    body_shadow_reach_ = {casters_W.center(), r, beyond_m};
     body_shadow_dirty_ = false;
   }
 
@@ -538,8 +560,11 @@ class GlRenderer final : public Renderer {
                      GL_FLOAT, nullptr);
       gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
       gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-      gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-      gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+      // beyond the map the border's depth 1 passes the compare: lit
+      gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_BORDER);
+      gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_BORDER);
+      const float farthest[4] = {1.0f, 1.0f, 1.0f, 1.0f};
+      gl_.TexParameterfv(GL_TEXTURE_2D, GL_TEXTURE_BORDER_COLOR, farthest);
       gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
       gl_.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
       gl_.GenFramebuffers(1, &map->framebuffer);
@@ -596,21 +621,87 @@ class GlRenderer final : public Renderer {
     return scene_.materials[object.material >= 0 ? object.material : part_material];
   }
 
-  void DrawObject(std::size_t o) {
+  // Whether the objects on bodies can shade object o: objects on bodies always can (a vehicle shades
+  // itself); a fixed object only if its bounding sphere reaches the cylinder their shadows fill, from the
+  // casters' sphere along the sun's travel to the body map's far end.
+  bool ReceivesBodyShadows(std::size_t o) const {
+    if (object_body_[o] >= 0) return true;
+    const Eigen::Vector3d v = ObjectToWorld(o).block<3, 1>(0, 3) - body_shadow_reach_.center_W;
+    const double along_m = v.dot(scene_.sun.direction_W.normalized());
+    const double across_m = (v - along_m * scene_.sun.direction_W.normalized()).norm();
+    const double object_m = object_radius_m_[o], casters_m = body_shadow_reach_.radius_m;
+    return across_m <= casters_m + object_m && along_m >= -casters_m - object_m &&
+           along_m <= body_shadow_reach_.beyond_m + object_m;
+  }
+
+  unsigned Features(std::size_t o, const Material& material, bool body_shadows) const {
+    unsigned features = material.texture >= 0 ? kTextured : 0u;
+    if (material.unlit) return features;
+    features |= kLit;
+    if (material.specular > 0.0f) features |= kSpecular;
+    if (scene_.fog.density_per_m > 0.0f) features |= kFog;
+    if (scene_.sun.shadows) features |= kFixedShadows;
+    if (body_shadows && ReceivesBodyShadows(o)) features |= kBodyShadows;
+    return features;
+  }
+
+  // The scene program with these features, compiled at first use, made current and given this image's
+  // uniforms if it does not hold them yet.
+  Program& UseSceneProgram(unsigned features) {
+    SceneProgram& entry = scene_programs_[features];
+    if (!entry.program) {
+      std::string defines;
+      const std::pair<ShaderFeature, const char*> names[] = {
+          {kTextured, "TEXTURED"}, {kLit, "LIT"},
+          {kSpecular, "SPECULAR"}, {kFog, "FOG"},
+          {kFixedShadows, "FIXED_SHADOWS"}, {kBodyShadows, "BODY_SHADOWS"}};
+      for (const auto& [feature, name] : names) {
+        if (features & feature) defines += std::string("#define ") + name + "\n";
+      }
+      entry.program =
+          std::make_unique<Program>(gl_, kSceneVertexShader, kSceneFragmentShader, defines, "scene");
+      Program& p = *entry.program;
+      gl_.UseProgram(p.id());
+      p.Set("albedo_texture", 0);
+      p.Set("shadow_map", 1);
+      p.Set("body_shadow_map", 2);
+    }
+    Program& p = *entry.program;
+    gl_.UseProgram(p.id());
+    if (entry.image == image_serial_) return p;
+    entry.image = image_serial_;
+    const ImageUniforms& u = image_uniforms_;
+    p.Set("X_CW", u.X_CW);
+    p.Set("clip_C", u.clip_C);
+    p.Set("eye_W", u.eye_W);
+    p.Set("exposure", u.exposure);
+    p.Set("to_sun_W", Eigen::Vector3f((-scene_.sun.direction_W.normalized()).cast<float>()));
+    p.Set("sun", Eigen::Vector3f(Linear(scene_.sun.color) * scene_.sun.intensity));
+    p.Set("ambient", Eigen::Vector3f(Linear(scene_.ambient_color) * scene_.ambient_intensity));
+    p.Set("fog_density", scene_.fog.density_per_m);
+    p.Set("fog_color", Linear(scene_.fog.color));
+    p.Set("light_clip_W", Eigen::Matrix4f(fixed_shadow_.light_clip_W.cast<float>()));
+    p.Set("shadow_texel_m", static_cast<float>(fixed_shadow_.texel_m));
+    p.Set("body_light_clip_W", Eigen::Matrix4f(body_shadow_.light_clip_W.cast<float>()));
+    p.Set("body_shadow_texel_m", static_cast<float>(body_shadow_.texel_m));
+    return p;
+  }
+
+  void DrawObject(std::size_t o, bool body_shadows) {
     const SceneObject& object = scene_.objects[o];
-    Program& p = *scene_program_;
     const Eigen::Matrix4d X_WO = ObjectToWorld(o);
-    p.Set("X_WO", Eigen::Matrix4f(X_WO.cast<float>()));
-    p.Set("normal_W_O", Eigen::Matrix3f(X_WO.block<3, 3>(0, 0).inverse().transpose().cast<float>()));
+    const Eigen::Matrix4f X_WO_f = X_WO.cast<float>();
+    const Eigen::Matrix3f normal_W_O = X_WO.block<3, 3>(0, 0).inverse().transpose().cast<float>();
     for (const GpuPart& part : meshes_[object.mesh]) {
       const Material& material = MaterialOf(object, part.material);
+      Program& p = UseSceneProgram(Features(o, material, body_shadows));
+      p.Set("X_WO", X_WO_f);
+      p.Set("normal_W_O", normal_W_O);
       p.Set("albedo", Linear(material.color));
-      p.Set("has_texture", material.texture >= 0 ? 1 : 0);
       if (material.texture >= 0) {
         gl_.ActiveTexture(GL_TEXTURE0);
         gl_.BindTexture(GL_TEXTURE_2D, textures_[material.texture]);
       }
-      p.Set("unlit", material.unlit ? 1 : 0);
       p.Set("specular", material.specular);
       p.Set("shininess", material.shininess);
       gl_.BindVertexArray(part.vertex_array);
@@ -637,7 +728,25 @@ class GlRenderer final : public Renderer {
   std::unique_ptr<GlContext> context_;
   GlFunctions gl_;
   std::string description_;
-  std::unique_ptr<Program> scene_program_, shadow_program_;
+  struct SceneProgram {
+    std::unique_ptr<Program> program;
+    std::uint64_t image = 0;  // the image whose uniforms it holds (image_serial_)
+  };
+  struct ImageUniforms {
+    Eigen::Matrix4f X_CW, clip_C;
+    Eigen::Vector3f eye_W;
+    float exposure = 1.0f;
+  };
+  // where the objects on bodies can cast shadows (ReceivesBodyShadows), set with their shadow map
+  struct BodyShadowReach {
+    Eigen::Vector3d center_W = Eigen::Vector3d::Zero();
+    double radius_m = 0.0, beyond_m = 0.0;
+  };
+  std::map<unsigned, SceneProgram> scene_programs_;  // by ShaderFeature bits
+  std::uint64_t image_serial_ = 0;
+  ImageUniforms image_uniforms_;
+  BodyShadowReach body_shadow_reach_;
+  std::unique_ptr<Program> shadow_program_;
   Scene scene_;
   std::vector<std::vector<GpuPart>> meshes_;  // per scene mesh
   std::vector<GLuint> textures_;

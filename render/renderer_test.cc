@@ -136,7 +136,11 @@ TEST(Renderer, DepthImageMatchesThePlane) {
 
 // Ground and a box 1 m above it, the sun straight down, a camera off to the side: the ground under the box
 // is dark with shadows on, lit with them off; ground away from the box is the same either way.
-TEST(Renderer, BoxShadowsTheGroundBelowIt) {
+// The box fixed in W, and on a body: the two shadow maps (and the fixed receivers the body's map reaches).
+class BoxShadow : public ::testing::TestWithParam<bool> {};
+
+TEST_P(BoxShadow, ShadowsTheGroundBelowIt) {
+  const bool on_body = GetParam();
   Renderer& renderer = SharedRenderer();
   Scene scene;
   scene.sun.direction_W = Eigen::Vector3d::UnitZ();
@@ -151,7 +155,8 @@ TEST(Renderer, BoxShadowsTheGroundBelowIt) {
   SceneObject box;
   box.name = "box";
   box.mesh = scene.AddMesh(MakeBox(Eigen::Vector3d(1.0, 1.0, 0.5), grey));
-  box.X_BO.translation() = Eigen::Vector3d(0.0, 0.0, -1.0);
+  box.X_BO.translation() = Eigen::Vector3d(0.0, 0.0, on_body ? 0.0 : -1.0);
+  if (on_body) box.body = "vehicle/platform";
   scene.AddObject(box);
   const Camera camera = MakeCamera(160, 120, 60.0);
   const Eigen::Isometry3d X_WC = LookAlong(Eigen::Vector3d(-6.0, 0.0, -3.0), Eigen::Vector3d(6.0, 0.0, 3.0));
@@ -159,11 +164,17 @@ TEST(Renderer, BoxShadowsTheGroundBelowIt) {
   const Eigen::Vector2d open_ground =
       camera.intrinsics.Project(X_WC.inverse() * Eigen::Vector3d(0.0, 2.5, 0.0));
   Image with, without;
-  renderer.SetScene(scene);
-  renderer.Render(camera, X_WC, &with, nullptr);
+  const auto render = [&](Image* image) {
+    renderer.SetScene(scene);
+    if (on_body) {
+      renderer.SetBodyPose(renderer.BodyIndex("vehicle/platform"),
+                           Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, -1.0)));
+    }
+    renderer.Render(camera, X_WC, image, nullptr);
+  };
+  render(&with);
   scene.sun.shadows = false;
-  renderer.SetScene(scene);
-  renderer.Render(camera, X_WC, &without, nullptr);
+  render(&without);
   const auto red = [](const Image& image, const Eigen::Vector2d& uv) {
     return static_cast<int>(image.Pixel(std::lround(uv.x()), std::lround(uv.y()))[0]);
   };
@@ -172,6 +183,11 @@ TEST(Renderer, BoxShadowsTheGroundBelowIt) {
   EXPECT_NEAR(red(without, under_box), 229, 3);
   EXPECT_EQ(red(with, open_ground), red(without, open_ground));
 }
+
+INSTANTIATE_TEST_SUITE_P(Renderer, BoxShadow, ::testing::Bool(),
+                         [](const ::testing::TestParamInfo<bool>& param) {
+                           return param.param ? "OnABody" : "FixedInTheWorld";
+                         });
 
 // A lit wall 50 m away: with fog of 0.05 /m only exp(-2.5) = 8% of its colour is left.
 TEST(Renderer, FogTurnsDistantSurfacesToTheFogColour) {
