@@ -47,9 +47,9 @@ add_library(iapsim::rosbag ALIAS iapsim_rosbag)
 # loaded through the context's GetProcAddress, so nothing links libGL/libOpenGL (linking -lOpenGL before
 # -lOSMesa kills every GL call, see shared NOTES).
 pkg_check_modules(OSMESA REQUIRED IMPORTED_TARGET osmesa)
-pkg_check_modules(LIBPNG REQUIRED IMPORTED_TARGET libpng)
+pkg_check_modules(LIBDEFLATE REQUIRED IMPORTED_TARGET libdeflate)
 # Debian's split OpenCV packages (core, imgproc, imgcodecs, videoio) ship no OpenCVConfig.cmake: find the
-# four libraries directly. Used for PNG encode/decode and video, never in a public header.
+# four libraries directly. Used for image decoding, depth PNGs and video, never in a public header.
 find_path(OPENCV_INCLUDE_DIR opencv2/core.hpp PATH_SUFFIXES opencv4 REQUIRED)
 add_library(iapsim_opencv INTERFACE)
 target_include_directories(iapsim_opencv SYSTEM INTERFACE ${OPENCV_INCLUDE_DIR})

@@ -30,7 +30,7 @@ struct EyeFrame {
 struct CameraSystemOptions {
   RendererOptions renderer;
   bool encode_png = true;
-  int png_compression = 1;  ///< zlib level 0..9; 1 is the knee of size against time for rendered images
+  int png_compression = 1;  ///< deflate level 0..9; 1 is the knee of size against time for rendered images
 };
 
 class CameraSystem {

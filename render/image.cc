@@ -1,7 +1,6 @@
 #include "render/image.h"
 
-#include <png.h>
-#include <zlib.h>
+#include <libdeflate.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -37,44 +37,59 @@ Image FromBgr(const cv::Mat& bgr) {
 
 }  // namespace
 
-// libpng directly rather than OpenCV: one filter (sub) and zlib's run-length strategy instead of trying
-// every filter per row halve the encode time at 640x480 (6.7 ms against 13.3 ms here) for the same size.
+// The PNG container (RFC 2083: signature, IHDR, IDAT, IEND, each chunk's CRC-32) is written here around a
+// zlib stream from libdeflate, not through libpng: libpng compresses only with zlib, whose deflate took
+// 7.1 ms a 640x480 frame here against 4.9 ms for libdeflate at level 1 (with a 6% smaller file), and the
+// render process encodes six of them a frame. Every row takes the sub filter (each byte less the one a
+// pixel to its left): one filter instead of trying five per row, and the best of them on rendered images.
 std::vector<std::uint8_t> EncodePng(const Image& image, int compression) {
   if (image.width <= 0 || image.height <= 0 ||
       image.rgb.size() != static_cast<std::size_t>(image.width) * image.height * 3) {
     throw std::invalid_argument("EncodePng: the image has no pixels or the wrong number of bytes");
   }
-  std::vector<std::uint8_t> bytes;
-  bytes.reserve(image.rgb.size() / 3);
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!info) {
-    png_destroy_write_struct(&png, nullptr);
-    throw std::runtime_error("EncodePng: libpng cannot start");
-  }
-  // libpng reports errors by longjmp; nothing here owns memory that the jump would leak
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    throw std::runtime_error("EncodePng: libpng failed");
-  }
-  png_set_write_fn(
-      png, &bytes,
-      [](png_structp p, png_bytep data, png_size_t n) {
-        auto* out = static_cast<std::vector<std::uint8_t>*>(png_get_io_ptr(p));
-        out->insert(out->end(), data, data + n);
-      },
-      nullptr);
-  png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
-               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-  png_set_compression_level(png, std::clamp(compression, 0, 9));
-  png_set_compression_strategy(png, Z_RLE);
-  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
-  png_write_info(png, info);
+  const std::size_t row_bytes = static_cast<std::size_t>(image.width) * 3;
+  std::vector<std::uint8_t> filtered((row_bytes + 1) * image.height);
   for (int v = 0; v < image.height; ++v) {
-    png_write_row(png, const_cast<png_bytep>(image.Pixel(0, v)));
+    const std::uint8_t* in = image.Pixel(0, v);
+    std::uint8_t* out = &filtered[(row_bytes + 1) * v];
+    *out++ = 1;  // filter type: sub
+    std::copy(in, in + 3, out);
+    for (std::size_t i = 3; i < row_bytes; ++i) out[i] = static_cast<std::uint8_t>(in[i] - in[i - 3]);
   }
-  png_write_end(png, nullptr);
-  png_destroy_write_struct(&png, &info);
+  const std::unique_ptr<libdeflate_compressor, void (*)(libdeflate_compressor*)> compressor(
+      libdeflate_alloc_compressor(std::clamp(compression, 0, 9)), libdeflate_free_compressor);
+  if (!compressor) throw std::runtime_error("EncodePng: libdeflate cannot start");
+
+  std::vector<std::uint8_t> bytes = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  const auto put_u32 = [](std::uint8_t* at, std::uint32_t value) {  // PNG integers are big-endian
+    for (int i = 0; i < 4; ++i) at[i] = static_cast<std::uint8_t>(value >> (24 - 8 * i));
+  };
+  // a chunk of `size` data bytes whose data the caller has written after its 8-byte head at `start`
+  const auto seal_chunk = [&](std::size_t start, const char* type, std::size_t size) {
+    put_u32(&bytes[start], static_cast<std::uint32_t>(size));
+    std::copy(type, type + 4, &bytes[start + 4]);
+    bytes.resize(start + 8 + size + 4);
+    put_u32(&bytes[start + 8 + size], libdeflate_crc32(0, &bytes[start + 4], 4 + size));
+  };
+  std::size_t start = bytes.size();
+  bytes.resize(start + 8 + 13);
+  put_u32(&bytes[start + 8], static_cast<std::uint32_t>(image.width));
+  put_u32(&bytes[start + 12], static_cast<std::uint32_t>(image.height));
+  const std::uint8_t rgb8[5] = {8, 2, 0, 0, 0};  // bit depth, colour type RGB, deflate, adaptive filters, none
+  std::copy(rgb8, rgb8 + 5, &bytes[start + 16]);
+  seal_chunk(start, "IHDR", 13);
+
+  start = bytes.size();
+  const std::size_t bound = libdeflate_zlib_compress_bound(compressor.get(), filtered.size());
+  bytes.resize(start + 8 + bound);
+  const std::size_t compressed = libdeflate_zlib_compress(compressor.get(), filtered.data(), filtered.size(),
+                                                          &bytes[start + 8], bound);
+  if (compressed == 0) throw std::runtime_error("EncodePng: libdeflate failed");
+  seal_chunk(start, "IDAT", compressed);
+
+  start = bytes.size();
+  bytes.resize(start + 8);
+  seal_chunk(start, "IEND", 0);
   return bytes;
 }
 

@@ -28,7 +28,7 @@ struct DepthImage {
   float At(int u, int v) const { return depth_m[static_cast<std::size_t>(v) * width + u]; }
 };
 
-/// PNG bytes of an image. `compression` is zlib's level 0 (fastest, largest) to 9.
+/// PNG bytes of an image. `compression` is the deflate level: 0 (stored, largest), 1 (fastest) to 9.
 std::vector<std::uint8_t> EncodePng(const Image& image, int compression = 1);
 /// 16-bit PNG of a depth image in millimetres (0 where there is no depth or beyond 65.535 m), the
 /// 16UC1 encoding of ROS depth images.

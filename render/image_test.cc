@@ -26,6 +26,17 @@ TEST(Png, RoundTripIsLossless) {
     EXPECT_EQ(back.height, 23);
     EXPECT_EQ(back.rgb, image.rgb) << "level " << level;
   }
+  // a camera-sized image with long repeats (stripes) and smooth gradients: deflate's matches and literals
+  Image stripes{640, 480, {}};
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      stripes.rgb.insert(stripes.rgb.end(), {static_cast<std::uint8_t>((u / 8) % 2 ? 200 : 30),
+                                             static_cast<std::uint8_t>(v / 2), static_cast<std::uint8_t>(u + v)});
+    }
+  }
+  const std::vector<std::uint8_t> png = EncodePng(stripes);
+  EXPECT_LT(png.size(), stripes.rgb.size() / 10);
+  EXPECT_EQ(DecodeImage(png, "stripes").rgb, stripes.rgb);
   EXPECT_THROW(DecodeImage({1, 2, 3}, "junk"), std::invalid_argument);
   EXPECT_THROW(EncodePng(Image{2, 2, {1, 2, 3}}), std::invalid_argument);
 }

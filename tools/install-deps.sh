@@ -16,8 +16,8 @@ packages=(
   python3-genmsg python3-gencpp python3-rosbag python3-yaml python3-numpy python3-matplotlib
   # physics
   libbullet-dev libbullet-extras-dev liburdfdom-dev libtinyxml2-dev libassimp-dev
-  # rendering: OSMesa (llvmpipe), EGL and GL headers, PNG and video through OpenCV
-  libosmesa6-dev libegl-dev libgl-dev libpng-dev
+  # rendering: OSMesa (llvmpipe), EGL and GL headers, libdeflate for PNG encoding, decoding and video through OpenCV
+  libosmesa6-dev libegl-dev libgl-dev libdeflate-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
