@@ -48,7 +48,9 @@ std::vector<std::uint8_t> EncodePng(const Image& image, int compression) {
     throw std::invalid_argument("EncodePng: the image has no pixels or the wrong number of bytes");
   }
   const std::size_t row_bytes = static_cast<std::size_t>(image.width) * 3;
-  std::vector<std::uint8_t> filtered((row_bytes + 1) * image.height);
+  const std::size_t filtered_bytes = (row_bytes + 1) * image.height;
+  // scratch buffers left uninitialised: zeroing them would cost more than the filter
+  const std::unique_ptr<std::uint8_t[]> filtered(new std::uint8_t[filtered_bytes]);
   for (int v = 0; v < image.height; ++v) {
     const std::uint8_t* in = image.Pixel(0, v);
     std::uint8_t* out = &filtered[(row_bytes + 1) * v];
@@ -59,37 +61,37 @@ std::vector<std::uint8_t> EncodePng(const Image& image, int compression) {
   const std::unique_ptr<libdeflate_compressor, void (*)(libdeflate_compressor*)> compressor(
       libdeflate_alloc_compressor(std::clamp(compression, 0, 9)), libdeflate_free_compressor);
   if (!compressor) throw std::runtime_error("EncodePng: libdeflate cannot start");
+  const std::size_t bound = libdeflate_zlib_compress_bound(compressor.get(), filtered_bytes);
+  const std::unique_ptr<std::uint8_t[]> zlib(new std::uint8_t[bound]);
+  const std::size_t zlib_bytes =
+      libdeflate_zlib_compress(compressor.get(), filtered.get(), filtered_bytes, zlib.get(), bound);
+  if (zlib_bytes == 0) throw std::runtime_error("EncodePng: libdeflate failed");
 
   std::vector<std::uint8_t> bytes = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  const auto put_u32 = [](std::uint8_t* at, std::uint32_t value) {  // PNG integers are big-endian
-    for (int i = 0; i < 4; ++i) at[i] = static_cast<std::uint8_t>(value >> (24 - 8 * i));
+  bytes.reserve(bytes.size() + 3 * 12 + 13 + zlib_bytes);
+  const auto append_u32 = [&bytes](std::uint32_t value) {  // PNG integers are big-endian
+    for (int shift = 24; shift >= 0; shift -= 8) bytes.push_back(static_cast<std::uint8_t>(value >> shift));
   };
-  // a chunk of `size` data bytes whose data the caller has written after its 8-byte head at `start`
-  const auto seal_chunk = [&](std::size_t start, const char* type, std::size_t size) {
-    put_u32(&bytes[start], static_cast<std::uint32_t>(size));
-    std::copy(type, type + 4, &bytes[start + 4]);
-    bytes.resize(start + 8 + size + 4);
-    put_u32(&bytes[start + 8 + size], libdeflate_crc32(0, &bytes[start + 4], 4 + size));
+  const auto append_chunk = [&](const char* type, const std::uint8_t* data, std::size_t size) {
+    append_u32(static_cast<std::uint32_t>(size));
+    bytes.insert(bytes.end(), type, type + 4);
+    std::uint32_t crc = libdeflate_crc32(0, type, 4);
+    if (size > 0) {  // libdeflate_crc32 of a null buffer restarts at 0
+      bytes.insert(bytes.end(), data, data + size);
+      crc = libdeflate_crc32(crc, data, size);
+    }
+    append_u32(crc);
   };
-  std::size_t start = bytes.size();
-  bytes.resize(start + 8 + 13);
-  put_u32(&bytes[start + 8], static_cast<std::uint32_t>(image.width));
-  put_u32(&bytes[start + 12], static_cast<std::uint32_t>(image.height));
-  const std::uint8_t rgb8[5] = {8, 2, 0, 0, 0};  // bit depth, colour type RGB, deflate, adaptive filters, none
-  std::copy(rgb8, rgb8 + 5, &bytes[start + 16]);
-  seal_chunk(start, "IHDR", 13);
-
-  start = bytes.size();
-  const std::size_t bound = libdeflate_zlib_compress_bound(compressor.get(), filtered.size());
-  bytes.resize(start + 8 + bound);
-  const std::size_t compressed = libdeflate_zlib_compress(compressor.get(), filtered.data(), filtered.size(),
-                                                          &bytes[start + 8], bound);
-  if (compressed == 0) throw std::runtime_error("EncodePng: libdeflate failed");
-  seal_chunk(start, "IDAT", compressed);
-
-  start = bytes.size();
-  bytes.resize(start + 8);
-  seal_chunk(start, "IEND", 0);
+  std::uint8_t header[13] = {};
+  for (int i = 0; i < 4; ++i) {
+    header[i] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(image.width) >> (24 - 8 * i));
+    header[4 + i] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(image.height) >> (24 - 8 * i));
+  }
+  header[8] = 8;  // bits a sample; then colour type 2 (RGB), deflate, adaptive filtering, not interlaced
+  header[9] = 2;
+  append_chunk("IHDR", header, sizeof(header));
+  append_chunk("IDAT", zlib.get(), zlib_bytes);
+  append_chunk("IEND", nullptr, 0);
   return bytes;
 }
 
