@@ -14,9 +14,7 @@ namespace {
 // raster threads keep the cores and finish an image sooner, and the encoder takes the time they leave, while
 // llvmpipe bins or reads back on one thread. Six images a frame on two cores: +5 % frames/s. Best effort: a
 // thread whose priority cannot change encodes at its own.
-void YieldCoresToTheRasterThreads() {
-  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);
-}
+void YieldCoresToTheRasterThreads() { setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19); }
 
 }  // namespace
 

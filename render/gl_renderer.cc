@@ -247,7 +247,8 @@ class GlRenderer final : public Renderer {
                                std::to_string(major) + "." + std::to_string(minor) + ", 3.3 core is needed");
     }
     description_ = context_->BackendName() + ": " + String(GL_RENDERER) + ", OpenGL " + String(GL_VERSION);
-    shadow_program_ = std::make_unique<Program>(gl_, kShadowVertexShader, kShadowFragmentShader, "", "shadow");
+    shadow_program_ =
+        std::make_unique<Program>(gl_, kShadowVertexShader, kShadowFragmentShader, "", "shadow");
     CheckError("setting up");
   }
 
@@ -652,8 +653,8 @@ class GlRenderer final : public Renderer {
     if (!entry.program) {
       std::string defines;
       const std::pair<ShaderFeature, const char*> names[] = {
-          {kTextured, "TEXTURED"}, {kLit, "LIT"},
-          {kSpecular, "SPECULAR"}, {kFog, "FOG"},
+          {kTextured, "TEXTURED"},          {kLit, "LIT"},
+          {kSpecular, "SPECULAR"},          {kFog, "FOG"},
           {kFixedShadows, "FIXED_SHADOWS"}, {kBodyShadows, "BODY_SHADOWS"}};
       for (const auto& [feature, name] : names) {
         if (features & feature) defines += std::string("#define ") + name + "\n";

@@ -30,8 +30,9 @@ TEST(Png, RoundTripIsLossless) {
   Image stripes{640, 480, {}};
   for (int v = 0; v < 480; ++v) {
     for (int u = 0; u < 640; ++u) {
-      stripes.rgb.insert(stripes.rgb.end(), {static_cast<std::uint8_t>((u / 8) % 2 ? 200 : 30),
-                                             static_cast<std::uint8_t>(v / 2), static_cast<std::uint8_t>(u + v)});
+      stripes.rgb.insert(stripes.rgb.end(),
+                         {static_cast<std::uint8_t>((u / 8) % 2 ? 200 : 30), static_cast<std::uint8_t>(v / 2),
+                          static_cast<std::uint8_t>(u + v)});
     }
   }
   const std::vector<std::uint8_t> png = EncodePng(stripes);

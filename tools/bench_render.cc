@@ -2,8 +2,8 @@
 // three-star IAP flying through it: one camera, and the seed's three stereo pairs (six images a frame,
 // §VI-G); render only (draw + read back) and render + PNG encode (on a worker while the next image draws),
 // through render::CameraSystem as the render process uses it; then the render process itself in a lockstep
-// graph with physics, publishing (and recording) every image. The IAP moves every frame, so every frame
-// redraws the sun's shadow map too, as a flight does.
+// graph with physics, publishing every image of one camera, of the three pairs, and of the pairs recorded.
+// The IAP moves every frame, so every frame redraws the sun's shadow map too, as a flight does.
 
 #include <unistd.h>
 
@@ -100,17 +100,19 @@ Figure Measure(const Flight& flight, render::CameraSystem* system) {
 
 // The whole path of a flight: iapsim_render in a lockstep graph with physics, drawing, encoding and
 // publishing every frame before physics may step on (and, with `record`, the recorder writing every image).
+// `stereo`: a stereo pair on every sub-aircraft, else one camera on the first.
 Figure MeasureProcess(const std::string& scene_path, const std::string& vehicle_path,
-                      const model::Vehicle& model, bool record) {
+                      const model::Vehicle& model, bool stereo, bool record) {
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("iapsim-bench-render-" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
   const std::string vehicle = std::filesystem::absolute(vehicle_path).string();
   std::string cameras;
   for (const model::SubAircraft& sub : model.sub_aircraft) {
-    cameras += "        - {name: stereo, body: " + render::SubAircraftBody("iap", sub) +
-               ", position_m: [0.198, 0, 0], width: 640, height: 480, hfov_deg: 90, baseline_m: 0.12, "
-               "rate_hz: 20}\n";
+    cameras += "        - {name: cam, body: " + render::SubAircraftBody("iap", sub) +
+               ", position_m: [0.198, 0, 0], width: 640, height: 480, hfov_deg: 90, baseline_m: " +
+               (stereo ? "0.12" : "0") + ", rate_hz: 20}\n";
+    if (!stereo) break;
   }
   std::ofstream(dir / "bench.yaml") << "name: bench_render\nmode: lockstep\nduration_s: "
                                     << kSecondsPerFigure * 2
@@ -206,8 +208,11 @@ int BenchRender(const std::string& scene_path, const std::string& vehicle_path, 
       out[key][encode ? "render_png" : "render_only"] = ToJson(f);
     }
   }
+  const Figure one_published = MeasureProcess(scene_path, vehicle_path, vehicle, false, false);
+  PrintFigure("1 camera, iapsim_render publishing", one_published);
+  out["one_camera"]["process_published"] = ToJson(one_published);
   for (const bool record : {false, true}) {
-    const Figure f = MeasureProcess(scene_path, vehicle_path, vehicle, record);
+    const Figure f = MeasureProcess(scene_path, vehicle_path, vehicle, true, record);
     PrintFigure(
         record ? "3 stereo pairs, iapsim_render + bag recorder" : "3 stereo pairs, iapsim_render publishing",
         f);
