@@ -374,6 +374,20 @@ class GlRenderer final : public Renderer {
     Eigen::Matrix4d light_clip_W = Eigen::Matrix4d::Identity();
     double texel_m = 0.0;
   };
+  struct SceneProgram {
+    std::unique_ptr<Program> program;
+    std::uint64_t image = 0;  // the image whose uniforms it holds (image_serial_)
+  };
+  struct ImageUniforms {
+    Eigen::Matrix4f X_CW, clip_C;
+    Eigen::Vector3f eye_W;
+    float exposure = 1.0f;
+  };
+  // where the objects on bodies can cast shadows (ReceivesBodyShadows), set with their shadow map
+  struct BodyShadowReach {
+    Eigen::Vector3d center_W = Eigen::Vector3d::Zero();
+    double radius_m = 0.0, beyond_m = 0.0;
+  };
 
   std::string String(GLenum name) const {
     const GLubyte* s = gl_.GetString(name);
@@ -729,20 +743,6 @@ class GlRenderer final : public Renderer {
   std::unique_ptr<GlContext> context_;
   GlFunctions gl_;
   std::string description_;
-  struct SceneProgram {
-    std::unique_ptr<Program> program;
-    std::uint64_t image = 0;  // the image whose uniforms it holds (image_serial_)
-  };
-  struct ImageUniforms {
-    Eigen::Matrix4f X_CW, clip_C;
-    Eigen::Vector3f eye_W;
-    float exposure = 1.0f;
-  };
-  // where the objects on bodies can cast shadows (ReceivesBodyShadows), set with their shadow map
-  struct BodyShadowReach {
-    Eigen::Vector3d center_W = Eigen::Vector3d::Zero();
-    double radius_m = 0.0, beyond_m = 0.0;
-  };
   std::map<unsigned, SceneProgram> scene_programs_;  // by ShaderFeature bits
   std::uint64_t image_serial_ = 0;
   ImageUniforms image_uniforms_;
