@@ -186,6 +186,19 @@ TEST(SceneFile, ErrorsNameTheYamlLineAndTheFile) {
   EXPECT_NE(error.find(typo + ":2:"), std::string::npos) << error;
   EXPECT_NE(error.find("did you mean 'color'"), std::string::npos) << error;
 
+  const std::string unknown = Write(dir, "e.yaml",
+                                    "materials:\n"
+                                    "  red: {color: [1, 0, 0], texture: paint}\n");
+  error = ErrorOf([&] { LoadScene(unknown); });
+  EXPECT_NE(error.find(unknown + ":2:"), std::string::npos) << error;
+  EXPECT_NE(error.find("no texture 'paint' in `textures`"), std::string::npos) << error;
+  const std::string unknown_material = Write(dir, "f.yaml",
+                                             "objects:\n"
+                                             "  - {name: x, box: [1, 1, 1], material: red}\n");
+  error = ErrorOf([&] { LoadScene(unknown_material); });
+  EXPECT_NE(error.find(unknown_material + ":2:"), std::string::npos) << error;
+  EXPECT_NE(error.find("no material 'red' in `materials`"), std::string::npos) << error;
+
   const std::string two_shapes = Write(dir, "d.yaml",
                                        "objects:\n"
                                        "  - {name: x, box: [1, 1, 1], sphere: {radius_m: 1}}\n");

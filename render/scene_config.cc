@@ -58,16 +58,22 @@ TextureImage ReadTexture(YamlMap& map) {
   return MakeProceduralTexture(recipe);
 }
 
+// The index of the entry that `key` names in one of the scene's sections (`textures`, `materials`); −1 when
+// the key is absent or empty.
+int ReadReference(YamlMap& map, const char* key, const std::map<std::string, int>& entries,
+                  const char* section) {
+  std::string name;
+  map.Optional(key, &name);
+  if (name.empty()) return -1;
+  const auto it = entries.find(name);
+  if (it == entries.end()) map.Fail(key, "no " + std::string(key) + " '" + name + "' in `" + section + "`");
+  return it->second;
+}
+
 Material ReadMaterial(YamlMap& map, const std::map<std::string, int>& textures) {
   Material material;
   OptionalColor(map, "color", &material.color);
-  std::string texture;
-  map.Optional("texture", &texture);
-  if (!texture.empty()) {
-    const auto it = textures.find(texture);
-    if (it == textures.end()) map.Fail("texture", "no texture '" + texture + "' in `textures`");
-    material.texture = it->second;
-  }
+  material.texture = ReadReference(map, "texture", textures, "textures");
   map.OptionalInRange("specular", &material.specular, 0.0f, 1.0f);
   map.OptionalInRange("shininess", &material.shininess, 1.0f, 1000.0f);
   map.Optional("unlit", &material.unlit);
@@ -140,13 +146,7 @@ int ReadShapeMesh(YamlMap& map, Scene* scene, int material, float repeats_per_m)
 void ReadObject(YamlMap& map, Scene* scene, const std::map<std::string, int>& materials) {
   SceneObject object;
   map.Required("name", &object.name);
-  std::string material;
-  map.Optional("material", &material);
-  if (!material.empty()) {
-    const auto it = materials.find(material);
-    if (it == materials.end()) map.Fail("material", "no material '" + material + "' in `materials`");
-    object.material = it->second;
-  }
+  object.material = ReadReference(map, "material", materials, "materials");
   // primitives take the object's material (a default grey without one); a mesh keeps its own unless given
   const int primitive_material = object.material >= 0 ? object.material : scene->AddMaterial(Material{});
   double texture_scale_m = 1.0;
