@@ -162,49 +162,41 @@ TEST(MeshFile, BadFilesAreNamedInTheError) {
 // The scene YAML reports the YAML file, line and key, and the mesh or texture file behind it.
 TEST(SceneFile, ErrorsNameTheYamlLineAndTheFile) {
   const std::string dir = Folder("scene");
-  const std::string missing_mesh = Write(dir, "a.yaml",
-                                         "name: a\n"
-                                         "objects:\n"
-                                         "  - {name: part, mesh: {file: parts/none.stl}}\n");
-  std::string error = ErrorOf([&] { LoadScene(missing_mesh); });
-  EXPECT_NE(error.find(missing_mesh + ":3:"), std::string::npos) << error;
-  EXPECT_NE(error.find("objects[0]"), std::string::npos) << error;
-  EXPECT_NE(error.find("parts/none.stl"), std::string::npos) << error;
-
-  const std::string bad_texture = Write(dir, "b.yaml",
-                                        "textures:\n"
-                                        "  photo: {file: photo.png}\n");
+  // LoadScene of `yaml` fails naming the file and `line`, and says every one of `says`
+  const auto expect_error = [&](const std::string& name, const std::string& yaml, int line,
+                                std::initializer_list<const char*> says) {
+    const std::string path = Write(dir, name, yaml);
+    const std::string error = ErrorOf([&] { LoadScene(path); });
+    EXPECT_NE(error.find(path + ":" + std::to_string(line) + ":"), std::string::npos) << error;
+    for (const char* text : says) EXPECT_NE(error.find(text), std::string::npos) << error;
+  };
+  expect_error("a.yaml",
+               "name: a\n"
+               "objects:\n"
+               "  - {name: part, mesh: {file: parts/none.stl}}\n",
+               3, {"objects[0]", "parts/none.stl"});
   Write(dir, "photo.png", "not an image");
-  error = ErrorOf([&] { LoadScene(bad_texture); });
-  EXPECT_NE(error.find(bad_texture + ":2:"), std::string::npos) << error;
-  EXPECT_NE(error.find("photo.png: not an image"), std::string::npos) << error;
-
-  const std::string typo = Write(dir, "c.yaml",
-                                 "materials:\n"
-                                 "  red: {colour: [1, 0, 0]}\n");
-  error = ErrorOf([&] { LoadScene(typo); });
-  EXPECT_NE(error.find(typo + ":2:"), std::string::npos) << error;
-  EXPECT_NE(error.find("did you mean 'color'"), std::string::npos) << error;
-
-  const std::string unknown = Write(dir, "e.yaml",
-                                    "materials:\n"
-                                    "  red: {color: [1, 0, 0], texture: paint}\n");
-  error = ErrorOf([&] { LoadScene(unknown); });
-  EXPECT_NE(error.find(unknown + ":2:"), std::string::npos) << error;
-  EXPECT_NE(error.find("no texture 'paint' in `textures`"), std::string::npos) << error;
-  const std::string unknown_material = Write(dir, "f.yaml",
-                                             "objects:\n"
-                                             "  - {name: x, box: [1, 1, 1], material: red}\n");
-  error = ErrorOf([&] { LoadScene(unknown_material); });
-  EXPECT_NE(error.find(unknown_material + ":2:"), std::string::npos) << error;
-  EXPECT_NE(error.find("no material 'red' in `materials`"), std::string::npos) << error;
-
-  const std::string two_shapes = Write(dir, "d.yaml",
-                                       "objects:\n"
-                                       "  - {name: x, box: [1, 1, 1], sphere: {radius_m: 1}}\n");
-  error = ErrorOf([&] { LoadScene(two_shapes); });
-  EXPECT_NE(error.find("exactly one of"), std::string::npos) << error;
-  EXPECT_THROW(LoadScene(two_shapes), bridge::ConfigError);
+  expect_error("b.yaml",
+               "textures:\n"
+               "  photo: {file: photo.png}\n",
+               2, {"photo.png: not an image"});
+  expect_error("c.yaml",
+               "materials:\n"
+               "  red: {colour: [1, 0, 0]}\n",
+               2, {"did you mean 'color'"});
+  expect_error("d.yaml",
+               "materials:\n"
+               "  red: {color: [1, 0, 0], texture: paint}\n",
+               2, {"no texture 'paint' in `textures`"});
+  expect_error("e.yaml",
+               "objects:\n"
+               "  - {name: x, box: [1, 1, 1], material: red}\n",
+               2, {"no material 'red' in `materials`"});
+  expect_error("f.yaml",
+               "objects:\n"
+               "  - {name: x, box: [1, 1, 1], sphere: {radius_m: 1}}\n",
+               2, {"exactly one of"});
+  EXPECT_THROW(LoadScene(dir + "/f.yaml"), bridge::ConfigError);  // a configuration error, like every key's
 }
 
 // Every shipped scene loads (configs/scenes).
