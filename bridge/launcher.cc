@@ -5,6 +5,7 @@
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -107,6 +108,7 @@ struct Child {
   Clock::time_point last_heartbeat;
   int64_t sim_ns = 0;
   nlohmann::json report;
+  double cpu_s = 0.0;  // user + system time of the process (and any children it waited for), once reaped
 };
 
 pid_t Spawn(std::vector<std::string> args, const std::string& log_path) {
@@ -225,9 +227,12 @@ class Supervisor {
     for (auto& child : children_) {
       if (child.exited) continue;
       int status = 0;
-      if (waitpid(child.pid, &status, WNOHANG) != child.pid) continue;
+      rusage usage{};
+      if (wait4(child.pid, &status, WNOHANG, &usage) != child.pid) continue;
       child.exited = true;
       child.status = status;
+      child.cpu_s = static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+                    static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec) * 1e-6;
       const bool clean = WIFEXITED(status) && WEXITSTATUS(status) == 0;
       if (!stopping_ || (!clean && !completed_ && failure_.empty())) {
         Fail("process '" + child.name + "' (pid " + std::to_string(child.pid) + ") " + DescribeExit(status) +
@@ -473,11 +478,18 @@ LaunchResult Launch(const LaunchOptions& options) {
   for (const auto& child : supervisor.children()) {
     nlohmann::json entry = child.report.is_object() ? child.report : nlohmann::json::object();
     entry["exit"] = DescribeExit(child.status);
+    entry["cpu_s"] = child.cpu_s;
     if (child.name == scenario.clock_owner && entry.contains("sim_time_s")) {
       metrics["sim_time_s"] = entry["sim_time_s"];
       metrics["real_time_factor"] = entry["sim_time_s"].get<double>() / std::max(1e-9, supervisor.wall_s());
     }
     metrics["processes"][child.name] = entry;
+  }
+  // what each process costs per simulated second: where a run's time goes
+  if (metrics.contains("sim_time_s") && metrics["sim_time_s"].get<double>() > 0.0) {
+    for (auto& [name, entry] : metrics["processes"].items()) {
+      entry["cpu_s_per_sim_s"] = entry["cpu_s"].get<double>() / metrics["sim_time_s"].get<double>();
+    }
   }
   std::ofstream(result.run_dir + "/metrics.json") << metrics.dump(2) << "\n";
 

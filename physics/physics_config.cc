@@ -63,6 +63,9 @@ WorldConfig ReadWorld(YamlMap& map) {
   WorldConfig world;
   map.OptionalInRange("gravity_mps2", &world.gravity_mps2, 0.0, 100.0);
   map.OptionalInRange("solver_iterations", &world.solver_iterations, 1, 10000);
+  map.OptionalInRange("solver_tolerance_mps", &world.solver_tolerance_mps, 0.0, 1.0);
+  map.Optional("warm_start", &world.warm_start);
+  map.OptionalInRange("speculative_contact_speed_mps", &world.speculative_contact_speed_mps, 0.0, 1000.0);
   if (map.Has("ground")) {
     YamlMap ground = map.Map("ground");
     ground.Optional("enabled", &world.ground);

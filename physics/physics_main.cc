@@ -124,6 +124,13 @@ class PhysicsNode : public bridge::Process {
     (*report)["physics_steps"] = sim_->step_count();
     (*report)["physics_step_s"] = config_.simulation.step_s;
     (*report)["physics_steps_per_s"] = physics_wall_s_ > 0.0 ? sim_->step_count() / physics_wall_s_ : 0.0;
+    const SolverStats& solver = sim_->world().solver_stats();
+    (*report)["solver"] = {
+        {"solves", solver.solves},
+        {"mean_iterations", solver.solves > 0 ? static_cast<double>(solver.iterations) / solver.solves : 0.0},
+        {"max_iterations", solver.max_iterations},
+        {"capped_solves", solver.capped_solves},
+        {"max_capped_residual_mps", solver.max_residual_mps}};
     for (int v = 0; v < sim_->vehicle_count(); ++v) {
       const VehicleOutput& out = sim_->output(v);
       auto& entry = (*report)["vehicles"][sim_->vehicle(v).name];

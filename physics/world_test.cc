@@ -178,6 +178,64 @@ TEST(Simulation, AnIapRestingOnABoxReadsItsWeightAsExternalWrench) {
   }
 }
 
+// The three-star standing on its sub-aircraft's boxes (12 box-plane contacts): warm started, each step's
+// solve starts at the last step's impulses, which already hold the weight, so it ends after an iteration or
+// two; solved cold to the same tolerance it needs far more. Both read the weight.
+TEST(Simulation, AWarmStartedSolveOfAnIapAtRestEndsInAFewIterations) {
+  for (const bool warm_start : {true, false}) {
+    SCOPED_TRACE(warm_start);
+    SimulationConfig config;
+    config.world.warm_start = warm_start;
+    // the boxes (0.10 m tall, centred 0.07 m below P) on the ground
+    config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -0.12)));
+    config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+    Simulation sim(config);
+    SubAircraftSetpoint off;
+    off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+    for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, off);
+    for (int k = 0; k < 500; ++k) sim.Step();
+    const SolverStats settled = sim.world().solver_stats();
+    for (int k = 0; k < 500; ++k) sim.Step();
+    const SolverStats& stats = sim.world().solver_stats();
+    const double mean_iterations =
+        static_cast<double>(stats.iterations - settled.iterations) / static_cast<double>(stats.solves - settled.solves);
+    const double weight_N = sim.vehicle(0).vehicle.TotalMass_kg() * 9.81;
+    std::printf("three-star at rest, %s: %.1f iterations a step, external force %.9f N (weight %.9f N)\n",
+                warm_start ? "warm started" : "cold", mean_iterations, -sim.output(0).external_force_W_N.z(),
+                weight_N);
+    EXPECT_EQ(sim.world().contacts().size(), 12u);
+    EXPECT_NEAR(sim.output(0).external_force_W_N.z(), -weight_N, 1e-6 * weight_N);
+    EXPECT_EQ(stats.capped_solves, settled.capped_solves);  // the landing may take them all, resting never
+    if (warm_start) {
+      EXPECT_LE(mean_iterations, 2.0);
+    } else {
+      EXPECT_GE(mean_iterations, 10.0);
+    }
+  }
+}
+
+// Static bodies never move, so a pair of them is not collided: a static stand on the ground makes no
+// contact, while a movable box on it does.
+TEST(MultibodyWorld, StaticBodiesTouchingEachOtherMakeNoContacts) {
+  WorldConfig config;
+  config.objects = {Box("stand", Eigen::Vector3d(0.3, 0.3, 0.5), Eigen::Vector3d(0.0, 0.0, -0.25)),
+                    Box("box", Eigen::Vector3d(0.2, 0.2, 0.2), Eigen::Vector3d(0.0, 0.0, -0.6), 1.0)};
+  MultibodyWorld world(config, 0.001);
+  for (int k = 0; k < 100; ++k) world.Step();
+  const int stand = world.FindBody("stand");
+  const int box = world.FindBody("box");
+  bool stand_on_ground = false, box_on_stand = false;
+  for (const Contact& c : world.contacts()) {
+    if ((c.body_a == stand && c.body_b == kGround) || (c.body_a == kGround && c.body_b == stand)) {
+      stand_on_ground = true;
+    }
+    if ((c.body_a == box && c.body_b == stand) || (c.body_a == stand && c.body_b == box)) box_on_stand = true;
+  }
+  EXPECT_FALSE(stand_on_ground);
+  EXPECT_TRUE(box_on_stand);
+  EXPECT_NEAR(world.ContactForce_W(box).z(), -9.81, 1e-6);
+}
+
 TEST(Simulation, CollisionFiltersLetAVehiclePassThroughAnObject) {
   SimulationConfig config;
   config.world.ground = false;
