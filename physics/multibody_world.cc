@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "model/mesh.h"
+#include "physics/internal/contact_solver.h"
 
 namespace iapsim::physics {
 namespace {
@@ -52,67 +53,6 @@ class LatchConstraint final : public btMultiBodyFixedConstraint {
     latch_info.m_erp = 0.8;
     btMultiBodyFixedConstraint::createConstraintRows(rows, data, latch_info);
   }
-};
-
-// Bullet's multibody solver with warm starting: every contact row (normal and both friction directions) and
-// every latch row starts from the impulse it ended the last step with, applied to the bodies before the
-// iterations, as Catto's sequential impulses do (GDC 2006, "Fast and Simple Physics using Sequential
-// Impulses"). A resting or steadily sliding contact then starts at its solution. Bullet's own
-// SOLVER_USE_ARTICULATED_WARMSTARTING (3.24) is not used: it starts friction from zero (a pole leaning in the
-// funnel's hole took 34 iterations a step on average with it, 6 with this, 48 cold) and it applies a latch
-// row's warm impulse to a multibody but not to a rigid body on its other side, which spun a latched
-// rod-and-crate pair up from 0.7 to 12 rad/s (measured).
-class WarmStartedSolver final : public btMultiBodyConstraintSolver {
- public:
-  btScalar solveGroupCacheFriendlySetup(btCollisionObject** bodies, int num_bodies, btPersistentManifold** manifolds,
-                                        int num_manifolds, btTypedConstraint** constraints, int num_constraints,
-                                        const btContactSolverInfo& info, btIDebugDraw* debug_draw) override {
-    const btScalar result = btMultiBodyConstraintSolver::solveGroupCacheFriendlySetup(
-        bodies, num_bodies, manifolds, num_manifolds, constraints, num_constraints, info, debug_draw);
-    if (!warm_start_) return result;
-    for (int i = 0; i < m_multiBodyNormalContactConstraints.size(); ++i) {
-      btMultiBodySolverConstraint& normal = m_multiBodyNormalContactConstraints[i];
-      const auto* point = static_cast<const btManifoldPoint*>(normal.m_originalContactPoint);
-      Start(normal, std::clamp(point->m_appliedImpulse, normal.m_lowerLimit, normal.m_upperLimit));
-      // the two friction rows of the point follow each other (SOLVER_USE_2_FRICTION_DIRECTIONS); their
-      // directions come from the normal alone (btPlaneSpace1), so they are last step's while it holds
-      Start(m_multiBodyFrictionContactConstraints[normal.m_frictionIndex], point->m_appliedImpulseLateral1);
-      Start(m_multiBodyFrictionContactConstraints[normal.m_frictionIndex + 1], point->m_appliedImpulseLateral2);
-    }
-    for (int i = 0; i < m_multiBodyNonContactConstraints.size(); ++i) {
-      btMultiBodySolverConstraint& row = m_multiBodyNonContactConstraints[i];
-      Start(row, row.m_orgConstraint->getAppliedImpulse(row.m_orgDofIndex));
-    }
-    return result;
-  }
-
-  void set_warm_start(bool warm_start) { warm_start_ = warm_start; }
-
- private:
-  // gives the row `impulse` as its applied impulse and its bodies the velocity change it makes, the way an
-  // iteration applies an impulse change (resolveSingleConstraintRowGeneric)
-  void Start(btMultiBodySolverConstraint& row, btScalar impulse) {
-    row.m_appliedImpulse = impulse;
-    if (impulse == 0.0) return;
-    if (row.m_multiBodyA) {
-      btScalar* unit_response = &m_data.m_deltaVelocitiesUnitImpulse[row.m_jacAindex];
-      applyDeltaVee(unit_response, impulse, row.m_deltaVelAindex, row.m_multiBodyA->getNumDofs() + 6);
-      row.m_multiBodyA->applyDeltaVeeMultiDof2(unit_response, impulse);
-    } else if (row.m_solverBodyIdA >= 0) {
-      btSolverBody& body = m_tmpSolverBodyPool[row.m_solverBodyIdA];
-      body.internalApplyImpulse(row.m_contactNormal1 * body.internalGetInvMass(), row.m_angularComponentA, impulse);
-    }
-    if (row.m_multiBodyB) {
-      btScalar* unit_response = &m_data.m_deltaVelocitiesUnitImpulse[row.m_jacBindex];
-      applyDeltaVee(unit_response, impulse, row.m_deltaVelBindex, row.m_multiBodyB->getNumDofs() + 6);
-      row.m_multiBodyB->applyDeltaVeeMultiDof2(unit_response, impulse);
-    } else if (row.m_solverBodyIdB >= 0) {
-      btSolverBody& body = m_tmpSolverBodyPool[row.m_solverBodyIdB];
-      body.internalApplyImpulse(row.m_contactNormal2 * body.internalGetInvMass(), row.m_angularComponentB, impulse);
-    }
-  }
-
-  bool warm_start_ = true;
 };
 
 // Bullet's per-body frame C: the CoM with principal axes (Bullet takes diagonal inertias only).
@@ -195,7 +135,7 @@ struct MultibodyWorld::Impl {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher{&collision_config};
   btDbvtBroadphase broadphase;
-  WarmStartedSolver solver;
+  internal::ContactSolver solver;
   btMultiBodyDynamicsWorld world{&dispatcher, &broadphase, &solver, &collision_config};
 
   // triangle meshes (the data Bullet's mesh shapes point into), before the shapes that use them
@@ -225,6 +165,7 @@ struct MultibodyWorld::Impl {
     // Bullet compares the largest squared velocity change of a row in an iteration with this
     info.m_leastSquaresResidualThreshold = config.solver_tolerance_mps * config.solver_tolerance_mps;
     solver.set_warm_start(config.warm_start);
+    solver.set_factored_rows(config.factored_contact_rows);
     // rigid bodies' contacts (movable world objects) are Bullet's own rows, warm started by Bullet with the
     // whole last impulse as well (its default 0.85 leaves a resting crate 1e-3 N off its weight at the tolerance)
     if (config.warm_start) {

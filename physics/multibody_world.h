@@ -80,6 +80,10 @@ struct WorldConfig {
   /// penetrate for a step and are pushed apart by the error reduction. Bullet's default solves every point
   /// of a manifold, up to its 2 cm breaking threshold.
   double speculative_contact_speed_mps = 5.0;
+  /// Contact rows of multibodies from one factorisation of each multibody's mass matrix per step
+  /// (physics/internal/contact_solver.h); false builds every row with Bullet's own setup (the same rows,
+  /// several times the cost), for comparison.
+  bool factored_contact_rows = true;
 };
 
 /// How the contact and latch solver did since the world was made.
