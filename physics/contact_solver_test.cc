@@ -1,6 +1,7 @@
 // The factored contact rows (physics/internal/contact_solver.h) against Bullet's own: the Jacobian of a contact
 // point and M⁻¹Jᵀ for every link of a tree with spherical and fixed joints in a random configuration, and a
 // stepped contact scene with either set of rows.
+#include "physics/internal/collision_configuration.h"
 #include "physics/internal/contact_solver.h"
 
 #include <gtest/gtest.h>
@@ -143,6 +144,62 @@ TEST(ContactSolver, FactoredRowsStepAContactSceneAsBulletsRowsDo) {
   EXPECT_GT(slid_m, 0.1);
   EXPECT_LT(max_position_difference_m, 1e-9);
   EXPECT_LT(max_force_difference_N, 1e-6);
+}
+
+// The box test that culls convex pairs before GJK never calls two boxes apart that come within the gap: random
+// boxes, their distance estimated from points spread over both (an upper bound of the true distance).
+TEST(OrientedBoxesApart, NeverSeparatesBoxesWithinTheGap) {
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const auto rotation = [&] { return Eigen::Quaterniond(Eigen::Vector4d(u(random), u(random), u(random), u(random)).normalized()).toRotationMatrix(); };
+  int apart = 0, near = 0;
+  for (int trial = 0; trial < 1000; ++trial) {
+    const Eigen::Vector3d half_a = (Eigen::Vector3d(u(random), u(random), u(random)).array() + 1.2) * 0.1;
+    const Eigen::Vector3d half_b = (Eigen::Vector3d(u(random), u(random), u(random)).array() + 1.2) * 0.1;
+    const Eigen::Matrix3d R_WA = rotation(), R_WB = rotation();
+    const Eigen::Vector3d c_a = Eigen::Vector3d::Zero();
+    const Eigen::Vector3d c_b = Eigen::Vector3d(u(random), u(random), u(random)) * 0.6;
+    const double gap_m = 0.02;
+    // distance of sampled points (a 9 x 9 x 9 grid in each box): the true distance is at most this
+    double sampled_m = 1e9;
+    for (int i = 0; i < 729; ++i) {
+      const Eigen::Vector3d s_a((i % 9) / 4.0 - 1.0, (i / 9 % 9) / 4.0 - 1.0, (i / 81) / 4.0 - 1.0);
+      const Eigen::Vector3d p_a = c_a + R_WA * half_a.cwiseProduct(s_a);
+      for (int j = 0; j < 729; j += 7) {
+        const Eigen::Vector3d s_b((j % 9) / 4.0 - 1.0, (j / 9 % 9) / 4.0 - 1.0, (j / 81) / 4.0 - 1.0);
+        sampled_m = std::min(sampled_m, (p_a - (c_b + R_WB * half_b.cwiseProduct(s_b))).norm());
+      }
+    }
+    const bool separated = internal::OrientedBoxesApart(c_a, R_WA, half_a, c_b, R_WB, half_b, gap_m);
+    if (sampled_m <= gap_m) {
+      EXPECT_FALSE(separated) << trial;
+    }
+    apart += separated;
+    near += sampled_m <= gap_m;
+  }
+  std::printf("box pairs: %d culled, %d within the gap (never culled)\n", apart, near);
+  EXPECT_GT(apart, 50);  // it does cull
+  EXPECT_GT(near, 50);
+}
+
+// A thin plate turned 30 degrees about two axes: its principal box holds every point and is as thin as the plate,
+// where its bounds along the frame's axes are not.
+TEST(PrincipalBox, FitsATurnedPlate) {
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  std::vector<Eigen::Vector3d> points;
+  for (const double x : {-0.1, 0.1}) {
+    for (const double y : {-0.05, 0.05}) {
+      for (const double z : {-0.002, 0.002}) points.push_back(Eigen::Vector3d(0.3, 0.2, 0.1) + R * Eigen::Vector3d(x, y, z));
+    }
+  }
+  const internal::ShapeBox box = internal::PrincipalBox(points);
+  for (const auto& p : points) {
+    const Eigen::Vector3d p_B = box.R_SB.transpose() * (p - box.center_S);
+    EXPECT_TRUE((p_B.cwiseAbs().array() <= box.half_m.array() + 1e-12).all());
+  }
+  EXPECT_NEAR(box.half_m.minCoeff(), 0.002, 1e-9);
+  EXPECT_NEAR(box.half_m.maxCoeff(), 0.1, 1e-9);
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "model/mesh.h"
+#include "physics/internal/collision_configuration.h"
 #include "physics/internal/contact_solver.h"
 
 namespace iapsim::physics {
@@ -132,7 +133,7 @@ struct MultibodyWorld::Impl {
   // before the broadphase that calls the filter, so both outlive it
   std::vector<Latch> latches;
   LatchPairFilter latch_filter{&latches};
-  btDefaultCollisionConfiguration collision_config;
+  internal::CollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher{&collision_config};
   btDbvtBroadphase broadphase;
   internal::ContactSolver solver;
@@ -141,6 +142,7 @@ struct MultibodyWorld::Impl {
   // triangle meshes (the data Bullet's mesh shapes point into), before the shapes that use them
   std::vector<std::unique_ptr<model::TriangleMesh>> meshes;
   std::vector<std::unique_ptr<btTriangleIndexVertexArray>> mesh_arrays;
+  std::vector<std::unique_ptr<internal::ShapeBox>> shape_boxes;  // before the shapes that point to them
   std::vector<std::unique_ptr<btCollisionShape>> shapes;
   std::vector<std::unique_ptr<btMultiBody>> multibodies;
   std::vector<std::vector<int>> multibody_bodies;  // per multibody: body id of Bullet link k − 1 (base first)
@@ -253,6 +255,10 @@ struct MultibodyWorld::Impl {
         }
         convex->recalcLocalAabb();
         convex->setMargin(shrink_m);
+        // the piece's own box, for culling it against other shapes before GJK (the hull with its margin lies
+        // within the mesh's points)
+        shape_boxes.push_back(std::make_unique<internal::ShapeBox>(internal::PrincipalBox(points_m)));
+        convex->setUserPointer(shape_boxes.back().get());
         out->push_back(std::move(convex));
       }
       return;
