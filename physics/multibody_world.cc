@@ -90,6 +90,25 @@ struct MultibodyWorld::Impl {
     Eigen::Isometry3d X_CB = Eigen::Isometry3d::Identity();  // B in Bullet's frame C
     double mass_kg = 0.0;
     Eigen::Matrix3d inertia_B_kgm2 = Eigen::Matrix3d::Zero();
+    int multibody_index = -1;  // into `multibodies`, -1 for an object
+    double radius_m = 0.0;     // of its collision shapes about its CoM: a point's speed is at most v + ω r
+  };
+
+  // what was applied to a body in a step (AddForce_W, AddTorque_W)
+  struct Load {
+    Eigen::Vector3d force_W_N = Eigen::Vector3d::Zero();
+    Eigen::Vector3d torque_W_Nm = Eigen::Vector3d::Zero();
+    bool SameAs(const Load& other) const {
+      constexpr double kTolerance = 1e-6;  // N, N·m
+      return (force_W_N - other.force_W_N).cwiseAbs().maxCoeff() <= kTolerance &&
+             (torque_W_Nm - other.torque_W_Nm).cwiseAbs().maxCoeff() <= kTolerance;
+    }
+  };
+
+  struct Sleep {
+    double still_s = 0.0;  // how long it has been at rest under the same loads
+    bool asleep = false;   // we put it to sleep (Bullet's island follows within two steps)
+    bool settled = false;  // Bullet's island sleeps too: from now on a stepped island means a wake-up
   };
 
   // The constraint is made when the latch is declared, so closing it in the loop does not allocate.
@@ -152,6 +171,9 @@ struct MultibodyWorld::Impl {
 
   std::vector<Body> bodies;
   std::vector<BodyState> states;
+  std::vector<Load> loads, last_loads, sleep_loads;  // per body: this step's, the last step's, when it fell asleep
+  std::vector<Sleep> sleep;                          // per multibody
+  std::vector<char> touching;                        // per multibody: it has a contact point this step
   std::vector<Contact> contacts;
   int64_t step_count = 0;
 
@@ -360,7 +382,9 @@ struct MultibodyWorld::Impl {
     rigid_bodies.push_back(std::make_unique<btRigidBody>(info));
     btRigidBody* rigid = rigid_bodies.back().get();
     ApplyMaterial(rigid, object.material);
-    rigid->setActivationState(DISABLE_DEACTIVATION);
+    // a movable object never sleeps (Bullet's test for rigid bodies is its own); a static one is inactive,
+    // so a sleeping vehicle resting on it is not collided with it
+    if (object.mass_kg > 0.0) rigid->setActivationState(DISABLE_DEACTIVATION);
     rigid->setUserIndex(static_cast<int>(bodies.size()));
     SetContactProcessingThreshold(rigid);
     world.addRigidBody(rigid, object.filter.group, object.filter.mask);
@@ -372,6 +396,7 @@ struct MultibodyWorld::Impl {
     body.inertia_B_kgm2 = Eig(inertia).asDiagonal();
     bodies.push_back(body);
     states.emplace_back();
+    ResizeLoads();
   }
 
   void UpdateBody(int id, const Eigen::Quaterniond& q_WC, const Eigen::Vector3d& p_WC,
@@ -436,8 +461,114 @@ struct MultibodyWorld::Impl {
     return Eigen::Translation3d(state.p_WB_m) * state.q_WB * bodies[body].X_CB.inverse();
   }
 
+  // Sleeping is ours, not Bullet's (whose test sums squared velocities of mixed units and ignores loads):
+  // Bullet may not sleep or wake a multibody by itself (canSleep with canWakeup off, a threshold it never
+  // meets); we put it to sleep, and Bullet's islands then skip it until we wake it or a moving body touching it
+  // keeps its island awake.
+  static void AllowSleepByUsOnly(btMultiBody* multibody) {
+    multibody->setCanSleep(true);
+    multibody->setCanWakeup(false);
+    multibody->setSleepThreshold(-1.0);
+  }
+
+  // a force at the body's CoM and a torque, for the next step only
+  void ApplyToBullet(int body, const Load& load) {
+    const Body& b = bodies[body];
+    if (b.rigid) {
+      b.rigid->applyCentralForce(Bt(load.force_W_N));
+      b.rigid->applyTorque(Bt(load.torque_W_Nm));
+    } else if (b.link < 0) {
+      b.multibody->addBaseForce(Bt(load.force_W_N));
+      b.multibody->addBaseTorque(Bt(load.torque_W_Nm));
+    } else {
+      b.multibody->addLinkForce(b.link, Bt(load.force_W_N));
+      b.multibody->addLinkTorque(b.link, Bt(load.torque_W_Nm));
+    }
+  }
+
+  void ResizeLoads() {
+    loads.resize(bodies.size());
+    last_loads.resize(bodies.size());
+    sleep_loads.resize(bodies.size());
+  }
+
+  void Wake(int body) {
+    const int m = bodies[body].multibody_index;
+    if (m < 0) return;
+    sleep[m] = Sleep();
+    btMultiBody* multibody = multibodies[m].get();
+    multibody->wakeUp();
+    for (const int b : multibody_bodies[m]) {
+      if (btCollisionObject* collider = ColliderOf(bodies[b])) collider->activate(true);
+    }
+  }
+
+  // before a step: a sleeping multibody whose loads changed wakes with this step's loads only (Bullet clears
+  // a multibody's forces after stepping it, so while it slept they piled up)
+  void WakeOnChangedLoads() {
+    for (size_t m = 0; m < multibodies.size(); ++m) {
+      if (!sleep[m].asleep) continue;
+      const std::vector<int>& members = multibody_bodies[m];
+      const bool changed = std::any_of(members.begin(), members.end(),
+                                       [&](int b) { return !loads[b].SameAs(sleep_loads[b]); });
+      if (sleep[m].settled) multibodies[m]->clearForcesAndTorques();
+      if (!changed) continue;
+      Wake(members[0]);
+      for (const int b : members) ApplyToBullet(b, loads[b]);
+    }
+  }
+
+  void UpdateSleep() {
+    for (size_t m = 0; m < multibodies.size(); ++m) {
+      btMultiBody* multibody = multibodies[m].get();
+      Sleep& state = sleep[m];
+      const std::vector<int>& members = multibody_bodies[m];
+      if (state.asleep) {
+        // Bullet's island sleeps two steps after goToSleep, unless a moving body in it keeps it awake; once
+        // it slept, a stepped island means such a body woke it
+        const btCollisionObject* collider = ColliderOf(bodies[members[0]]);
+        const bool island_sleeps = collider && collider->getActivationState() == ISLAND_SLEEPING;
+        state.still_s += step_s;
+        if (island_sleeps) {
+          state.settled = true;
+        } else if (state.settled || state.still_s > settings.sleep_after_s + 10.0 * step_s) {
+          Wake(members[0]);
+        }
+        continue;
+      }
+      // only a vehicle that touches something: contacts hold it where loads and gravity balance, whatever
+      // is left over; a free body would drift, however slowly
+      bool still = settings.sleep_after_s > 0.0 && touching[m];
+      for (const int b : members) {
+        const BodyState& body = states[b];
+        still = still && body.v_WBcom_W.norm() + body.w_WB_W.norm() * bodies[b].radius_m < settings.sleep_speed_mps &&
+                loads[b].SameAs(last_loads[b]);
+      }
+      state.still_s = still ? state.still_s + step_s : 0.0;
+      if (!still || state.still_s < settings.sleep_after_s) continue;
+      // at rest: it sleeps with zero velocities (below the threshold anyway) and these loads
+      multibody->setBaseVel(btVector3(0.0, 0.0, 0.0));
+      multibody->setBaseOmega(btVector3(0.0, 0.0, 0.0));
+      const double zero[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+      for (int link = 0; link < multibody->getNumLinks(); ++link) {
+        if (multibody->getLink(link).m_dofCount > 0) multibody->setJointVelMultiDof(link, zero);
+      }
+      multibody->goToSleep();
+      state.asleep = true;
+      for (const int b : members) {
+        sleep_loads[b] = loads[b];
+        states[b].v_WB_W.setZero();
+        states[b].w_WB_W.setZero();
+        states[b].v_WBcom_W.setZero();
+      }
+    }
+    last_loads.swap(loads);
+    for (Load& load : loads) load = Load();
+  }
+
   void CollectContacts() {
     contacts.clear();
+    std::fill(touching.begin(), touching.end(), 0);
     const int manifolds = dispatcher.getNumManifolds();
     for (int m = 0; m < manifolds; ++m) {
       const btPersistentManifold* manifold = dispatcher.getManifoldByIndexInternal(m);
@@ -457,6 +588,9 @@ struct MultibodyWorld::Impl {
         contact.force_on_a_W_N = Eig(impulse) / step_s;
         contact.depth_m = point.getDistance();
         contacts.push_back(contact);
+        for (const int body : {a, b}) {
+          if (body >= 0 && bodies[body].multibody_index >= 0) touching[bodies[body].multibody_index] = 1;
+        }
       }
     }
   }
@@ -525,13 +659,13 @@ int MultibodyWorld::AddMultibody(const std::string& name, const model::Multibody
   const Eigen::Isometry3d X_WC = X_WR * frames[0].X_BC;
   mb->setBasePos(Bt(Eigen::Vector3d(X_WC.translation())));
   mb->setWorldToBaseRot(Bt(Eigen::Quaterniond(X_WC.linear())).inverse());
-  // fidelity over Bullet's game defaults (NOTES): no damping, no clamps, no sleeping
+  // fidelity over Bullet's game defaults (NOTES): no damping, no clamps, sleeping only by our own test
   mb->setLinearDamping(0.0);
   mb->setAngularDamping(0.0);
   mb->setMaxCoordinateVelocity(1e30);
   mb->setMaxAppliedImpulse(1e30);
   mb->setUseGyroTerm(true);
-  mb->setCanSleep(false);
+  Impl::AllowSleepByUsOnly(mb);
   mb->setHasSelfCollision(true);
   impl.world.addMultiBody(mb, filter.group, filter.mask);
 
@@ -545,6 +679,7 @@ int MultibodyWorld::AddMultibody(const std::string& name, const model::Multibody
     body.X_CB = frames[k].X_BC.inverse();
     body.mass_kg = link.mass.mass_kg;
     body.inertia_B_kgm2 = link.mass.inertia_B_kgm2;
+    body.multibody_index = static_cast<int>(impl.multibodies.size());
     if (k > 0) {
       for (const auto& joint : description.joints) {
         if (joint.child == k) body.parent_body = root_id + joint.parent;
@@ -556,6 +691,10 @@ int MultibodyWorld::AddMultibody(const std::string& name, const model::Multibody
     auto collider = std::make_unique<btMultiBodyLinkCollider>(mb, body.link);
     collider->setCollisionShape(
         impl.MakeShape(link.collision, body.X_CB, model::BodyMotion::kMoving, body.name));
+    btVector3 center_C;  // the shapes are in Bullet's frame C, centred on the CoM
+    btScalar radius_m;
+    collider->getCollisionShape()->getBoundingSphere(center_C, radius_m);
+    impl.bodies.back().radius_m = center_C.length() + radius_m;
     Impl::ApplyMaterial(collider.get(), material);
     collider->setUserIndex(root_id + k);
     impl.SetContactProcessingThreshold(collider.get());
@@ -571,6 +710,9 @@ int MultibodyWorld::AddMultibody(const std::string& name, const model::Multibody
   for (int k = 0; k < links; ++k) body_of_link[bullet_link[k] + 1] = root_id + k;
   impl.multibodies.push_back(std::move(multibody));
   impl.multibody_bodies.push_back(body_of_link);
+  impl.sleep.emplace_back();
+  impl.touching.push_back(0);
+  impl.ResizeLoads();
   impl.world_to_local.resize(links);
   impl.local_origin.resize(links);
   mb->updateCollisionObjectWorldTransforms(impl.world_to_local, impl.local_origin);
@@ -592,25 +734,17 @@ double MultibodyWorld::mass_kg(int body) const { return impl_->bodies.at(body).m
 Eigen::Matrix3d MultibodyWorld::inertia_B_kgm2(int body) const { return impl_->bodies.at(body).inertia_B_kgm2; }
 
 void MultibodyWorld::AddForce_W(int body, const Eigen::Vector3d& force_W_N) {
-  const Impl::Body& b = impl_->bodies[body];
-  if (b.rigid) {
-    b.rigid->applyCentralForce(Bt(force_W_N));
-  } else if (b.link < 0) {
-    b.multibody->addBaseForce(Bt(force_W_N));
-  } else {
-    b.multibody->addLinkForce(b.link, Bt(force_W_N));
-  }
+  Impl::Load load;
+  load.force_W_N = force_W_N;
+  impl_->loads[body].force_W_N += force_W_N;
+  impl_->ApplyToBullet(body, load);
 }
 
 void MultibodyWorld::AddTorque_W(int body, const Eigen::Vector3d& torque_W_Nm) {
-  const Impl::Body& b = impl_->bodies[body];
-  if (b.rigid) {
-    b.rigid->applyTorque(Bt(torque_W_Nm));
-  } else if (b.link < 0) {
-    b.multibody->addBaseTorque(Bt(torque_W_Nm));
-  } else {
-    b.multibody->addLinkTorque(b.link, Bt(torque_W_Nm));
-  }
+  Impl::Load load;
+  load.torque_W_Nm = torque_W_Nm;
+  impl_->loads[body].torque_W_Nm += torque_W_Nm;
+  impl_->ApplyToBullet(body, load);
 }
 
 void MultibodyWorld::AddJointTorque_W(int body, const Eigen::Vector3d& torque_W_Nm) {
@@ -672,6 +806,8 @@ void MultibodyWorld::CloseLatch(int latch) {
   l.constraint->setFrameInB(btMatrix3x3::getIdentity());
   impl.world.addMultiBodyConstraint(l.constraint.get());
   l.closed = true;
+  impl.Wake(l.body_a);
+  impl.Wake(l.body_b);
   // drop the pair's contacts now; the filter keeps the pair from coming back
   impl.world.getPairCache()->removeOverlappingPair(l.collider_a->getBroadphaseHandle(),
                                                    l.collider_b->getBroadphaseHandle(), &impl.dispatcher);
@@ -683,6 +819,8 @@ void MultibodyWorld::OpenLatch(int latch) {
   if (!l.closed) return;
   impl.world.removeMultiBodyConstraint(l.constraint.get());
   l.closed = false;
+  impl.Wake(l.body_a);
+  impl.Wake(l.body_b);
   // The broadphase reports a pair only when a body leaves its fattened bounds, so bodies that overlap
   // already would not collide until one of them moved away: add their pair back now.
   btBroadphaseProxy* proxy_a = l.collider_a->getBroadphaseHandle();
@@ -696,12 +834,14 @@ bool MultibodyWorld::latched(int latch) const { return impl_->latches.at(latch).
 
 void MultibodyWorld::Step() {
   Impl& impl = *impl_;
+  impl.WakeOnChangedLoads();
   impl.world.stepSimulation(impl.step_s, 0);  // exactly one step of step_s (no accumulator)
   for (auto& rigid : impl.rigid_bodies) rigid->clearForces();  // multibodies clear theirs in the step
   ++impl.step_count;
   impl.UpdateStates(false);
   impl.CollectContacts();
   impl.CollectSolverStats();
+  impl.UpdateSleep();
 }
 
 double MultibodyWorld::step_s() const { return impl_->step_s; }
@@ -709,6 +849,11 @@ int64_t MultibodyWorld::step_count() const { return impl_->step_count; }
 const BodyState& MultibodyWorld::body(int body) const { return impl_->states.at(body); }
 const std::vector<Contact>& MultibodyWorld::contacts() const { return impl_->contacts; }
 const SolverStats& MultibodyWorld::solver_stats() const { return impl_->solver_stats; }
+
+bool MultibodyWorld::asleep(int body) const {
+  const int m = impl_->bodies.at(body).multibody_index;
+  return m >= 0 && impl_->sleep[m].asleep;
+}
 
 Eigen::Vector3d MultibodyWorld::ContactForce_W(int body) const {
   Eigen::Vector3d force_W_N = Eigen::Vector3d::Zero();

@@ -84,6 +84,12 @@ struct WorldConfig {
   /// (physics/internal/contact_solver.h); false builds every row with Bullet's own setup (the same rows,
   /// several times the cost), for comparison.
   bool factored_contact_rows = true;
+  /// A vehicle sleeps once no point of it has moved faster than `sleep_speed_mps` for `sleep_after_s` while
+  /// the loads on it stayed the same (within 1 µN and 1 µN·m): it is neither integrated nor solved, keeps its
+  /// pose and its contact forces, and wakes when a load on it changes, a latch on it closes or opens, or a
+  /// moving body touches it. Exact for a body at rest under constant loads; 0 s: never.
+  double sleep_after_s = 0.5;
+  double sleep_speed_mps = 1e-4;
 };
 
 /// How the contact and latch solver did since the world was made.
@@ -166,6 +172,8 @@ class MultibodyWorld {
   const BodyState& body(int body) const;
   const std::vector<Contact>& contacts() const;
   const SolverStats& solver_stats() const;
+  /// Whether the multibody that `body` belongs to sleeps (see WorldConfig::sleep_after_s).
+  bool asleep(int body) const;
   /// The sum of the last step's contact forces on `body` (from everything it touches), in W.
   Eigen::Vector3d ContactForce_W(int body) const;
 

@@ -186,6 +186,7 @@ TEST(Simulation, AWarmStartedSolveOfAnIapAtRestEndsInAFewIterations) {
     SCOPED_TRACE(warm_start);
     SimulationConfig config;
     config.world.warm_start = warm_start;
+    config.world.sleep_after_s = 0.0;  // solved every step
     // the boxes (0.10 m tall, centred 0.07 m below P) on the ground
     config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -0.12)));
     config.vehicles[0].initial_rotors = InitialRotors::kIdle;
@@ -212,6 +213,92 @@ TEST(Simulation, AWarmStartedSolveOfAnIapAtRestEndsInAFewIterations) {
       EXPECT_GE(mean_iterations, 10.0);
     }
   }
+}
+
+// The three-star standing on its boxes with its rotors off falls asleep (no point moving faster than
+// sleep_speed_mps for sleep_after_s, same loads) and keeps reading its weight; thrust wakes it and it lifts
+// off exactly as a twin that never sleeps does.
+TEST(Simulation, AnIapAtRestSleepsAndWakesWhenItsLoadsChange) {
+  std::vector<std::unique_ptr<Simulation>> sims;
+  for (const double sleep_after_s : {0.5, 0.0}) {
+    SimulationConfig config;
+    config.world.sleep_after_s = sleep_after_s;
+    config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -0.12)));
+    config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+    sims.push_back(std::make_unique<Simulation>(config));
+  }
+  SubAircraftSetpoint off;
+  off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  SubAircraftSetpoint lift = off;
+  lift.thrust_W_N = Eigen::Vector3d(0.0, 0.0, -25.0);  // three of them: 75 N against 57.9 N of weight
+  for (auto& sim : sims) {
+    for (int s = 0; s < 3; ++s) sim->SetCommand(0, s, off);
+    for (int k = 0; k < 1000; ++k) sim->Step();
+  }
+  Simulation& sleeper = *sims[0];
+  const int platform = sleeper.output(0).platform_body;
+  const double weight_N = sleeper.vehicle(0).vehicle.TotalMass_kg() * 9.81;
+  EXPECT_TRUE(sleeper.world().asleep(platform));
+  EXPECT_FALSE(sims[1]->world().asleep(platform));
+  EXPECT_NEAR(sleeper.output(0).external_force_W_N.z(), -weight_N, 1e-6 * weight_N);
+  EXPECT_EQ(sleeper.world().contacts().size(), 12u);
+  const double z_asleep_m = sleeper.world().body(platform).p_WB_m.z();
+  for (int k = 0; k < 500; ++k) sleeper.Step();  // idle: stays asleep and put
+  EXPECT_TRUE(sleeper.world().asleep(platform));
+  EXPECT_EQ(sleeper.world().body(platform).p_WB_m.z(), z_asleep_m);
+
+  for (auto& sim : sims) {
+    for (int s = 0; s < 3; ++s) sim->SetCommand(0, s, lift);
+    for (int k = 0; k < 300; ++k) sim->Step();
+  }
+  EXPECT_FALSE(sleeper.world().asleep(platform));
+  EXPECT_LT(sleeper.world().body(platform).p_WB_m.z(), -0.12 - 0.05);  // climbing
+  EXPECT_LT((sleeper.world().body(platform).p_WB_m - sims[1]->world().body(platform).p_WB_m).norm(), 1e-9);
+}
+
+// A vehicle with nothing to rest on never sleeps, however still: without contacts to balance them, the
+// smallest imbalance of its loads would move it.
+TEST(Simulation, AHoveringIapNeverSleeps) {
+  SimulationConfig config;
+  config.world.ground = false;
+  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -2.0)));
+  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+  Simulation sim(config);
+  SubAircraftSetpoint trim;
+  trim.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  trim.thrust_W_N = Eigen::Vector3d(0.0, 0.0, -sim.vehicle(0).vehicle.TotalMass_kg() * 9.81 / 3.0);
+  for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, trim);
+  for (int k = 0; k < 2000; ++k) sim.Step();
+  EXPECT_LT(sim.world().body(sim.output(0).platform_body).v_WB_W.norm(), 1e-6);
+  EXPECT_FALSE(sim.world().asleep(sim.output(0).platform_body));
+}
+
+// A box dropped onto a sleeping IAP wakes it: the island of a moving body is stepped, and the IAP carries the
+// box (a movable object never sleeps, so neither does an IAP it rests on).
+TEST(Simulation, AFallingBoxWakesASleepingIap) {
+  SimulationConfig config;
+  // a 0.5 kg box 4.8 m above the platform's top (z = −0.145): it lands after about a second
+  config.world.objects = {Box("box", Eigen::Vector3d(0.1, 0.1, 0.1), Eigen::Vector3d(0.0, 0.0, -5.0), 0.5)};
+  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -0.12)));
+  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+  Simulation sim(config);
+  SubAircraftSetpoint off;
+  off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, off);
+  const int platform = sim.output(0).platform_body;
+  const int box = sim.world().FindBody("box");
+  for (int k = 0; k < 900; ++k) sim.Step();
+  EXPECT_TRUE(sim.world().asleep(platform));
+  for (int k = 0; k < 2100; ++k) sim.Step();
+  EXPECT_FALSE(sim.world().asleep(platform));
+  EXPECT_NEAR(sim.world().body(box).p_WB_m.z(), -0.145 - 0.05, 1e-3);
+  Eigen::Vector3d ground_force_W_N = Eigen::Vector3d::Zero();  // on the ground, from everything on it
+  for (const Contact& c : sim.world().contacts()) {
+    if (c.body_b == kGround) ground_force_W_N -= c.force_on_a_W_N;
+    if (c.body_a == kGround) ground_force_W_N += c.force_on_a_W_N;
+  }
+  const double weight_N = (sim.vehicle(0).vehicle.TotalMass_kg() + 0.5) * 9.81;
+  EXPECT_NEAR(ground_force_W_N.z(), weight_N, 1e-3 * weight_N);
 }
 
 // Static bodies never move, so a pair of them is not collided: a static stand on the ground makes no
