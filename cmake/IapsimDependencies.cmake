@@ -27,6 +27,10 @@ iapsim_find_library(ROS_CPP_COMMON_LIB cpp_common)
 iapsim_find_library(ROSBAG_STORAGE_LIB rosbag_storage)
 iapsim_find_library(ROSLZ4_LIB roslz4)
 iapsim_find_library(CONSOLE_BRIDGE_LIB console_bridge)
+# MuJoCo 2.2 (libmujoco-dev): the reference scene of `iapsim bench physics`, nothing else. Found directly:
+# Debian's mujocoConfig.cmake names /usr/include/libqhull_r, which only libqhull-dev installs.
+iapsim_find_library(MUJOCO_LIB mujoco)
+find_path(MUJOCO_INCLUDE_DIR mujoco/mujoco.h REQUIRED)
 find_package(Boost REQUIRED COMPONENTS filesystem system)
 
 add_library(iapsim_ros_serialization INTERFACE)

@@ -1,6 +1,7 @@
 // iapsim bench physics: in-process physics steps per second (1 ms steps, flight controllers and rotors
 // running, every output computed) for the three-star IAP in the air and resting on the ground, and for IAPs
-// of 2 to 8 sub-aircraft, each next to a bare Bullet multibody of the same size stepped in the same run.
+// of 2 to 8 sub-aircraft, each next to a bare Bullet multibody of the same size stepped in the same run; the
+// resting IAP's contact solve from Bullet's defaults to iapsim's, beside MuJoCo on the same scene.
 
 #include <cmath>
 #include <cstdio>
@@ -12,6 +13,7 @@
 #include "physics/benchmark.h"
 #include "physics/simulation.h"
 #include "tools/commands.h"
+#include "tools/mujoco_reference.h"
 
 namespace iapsim::tools {
 namespace {
@@ -36,20 +38,108 @@ model::Vehicle WithSubAircraft(const model::Vehicle& base, int n) {
   return vehicle;
 }
 
-// In the air (no ground), hovering; or resting on the ground with idle rotors.
-double Measure(const model::Vehicle& vehicle, bool contacts) {
+physics::SimulationConfig Scene(const model::Vehicle& vehicle, bool contacts, const physics::WorldConfig& world) {
   physics::SimulationConfig config;
+  config.world = world;
   config.world.ground = contacts;
   physics::VehicleSpec spec;
   spec.name = "iap";
   spec.vehicle = vehicle;
   spec.description = model::ParseUrdf(model::GenerateUrdf(vehicle), vehicle.name + ".urdf");
-  // resting: the sub-aircraft boxes (0.10 m tall, centred 0.07 m below P) stand on the ground
-  spec.p_WP_m = contacts ? Eigen::Vector3d(0.0, 0.0, -0.12) : Eigen::Vector3d(0.0, 0.0, -2.0);
+  // resting: its collision boxes stand on the ground, idle rotors
+  spec.p_WP_m = Eigen::Vector3d(0.0, 0.0, contacts ? RestingPlatformZ_m(vehicle) : -2.0);
   spec.initial_rotors = contacts ? physics::InitialRotors::kIdle : physics::InitialRotors::kHover;
   config.vehicles.push_back(spec);
-  physics::Simulation simulation(config);
+  return config;
+}
+
+// In the air (no ground), hovering; or resting on the ground with idle rotors.
+double Measure(const model::Vehicle& vehicle, bool contacts, const physics::WorldConfig& world = {}) {
+  physics::Simulation simulation(Scene(vehicle, contacts, world));
   return physics::MeasureStepsPerSecond(&simulation, kSecondsPerFigure);
+}
+
+struct ContactFigures {
+  double steps_per_s = 0.0;
+  size_t contacts = 0;
+  double max_penetration_m = 0.0;
+  double weight_error_N = 0.0;  // |contact force on the vehicle + weight − rotor thrust|, last step
+};
+
+// The vehicle resting on the ground with these solver settings: speed, then 1 s more for the accuracy.
+ContactFigures MeasureResting(const model::Vehicle& vehicle, const physics::WorldConfig& world) {
+  physics::Simulation simulation(Scene(vehicle, true, world));
+  ContactFigures figures;
+  figures.steps_per_s = physics::MeasureStepsPerSecond(&simulation, kSecondsPerFigure);
+  for (int k = 0; k < 1000; ++k) {
+    simulation.Step();
+    for (const physics::Contact& contact : simulation.world().contacts()) {
+      figures.max_penetration_m = std::max(figures.max_penetration_m, -contact.depth_m);
+    }
+  }
+  const physics::VehicleOutput& out = simulation.output(0);
+  Eigen::Vector3d thrust_W_N = Eigen::Vector3d::Zero();
+  for (const auto& sub : out.sub_aircraft) thrust_W_N += sub.thrust_W_N;
+  figures.contacts = simulation.world().contacts().size();
+  figures.weight_error_N =
+      (out.external_force_W_N + thrust_W_N + Eigen::Vector3d(0.0, 0.0, vehicle.TotalMass_kg() * 9.81)).norm();
+  return figures;
+}
+
+// iapsim's contact solve step by step from Bullet's defaults to today's, and MuJoCo on the same scene.
+void BenchContact(const model::Vehicle& vehicle, double air_steps_per_s, nlohmann::json* report) {
+  struct Row {
+    std::string name;
+    physics::WorldConfig world;
+  };
+  physics::WorldConfig before;  // main before issue 18: Bullet's rows solved cold, every iteration
+  before.warm_start = false;
+  before.solver_tolerance_mps = 0.0;
+  before.factored_contact_rows = false;
+  before.sleep_after_s = 0.0;
+  physics::WorldConfig warm = before;
+  warm.warm_start = true;
+  warm.solver_tolerance_mps = physics::WorldConfig().solver_tolerance_mps;
+  physics::WorldConfig factored = warm;
+  factored.factored_contact_rows = true;
+  const std::vector<Row> rows = {
+      {"before: cold, 50 iterations, Bullet's rows", before},
+      {"warm started, tolerance 1e-7 m/s", warm},
+      {"+ factored rows (awake)", factored},
+      {"+ sleeping at rest (default)", physics::WorldConfig()},
+  };
+  std::printf("\ncontact: %s on its boxes on the ground, 1 ms steps (rotors idle, flight controllers on)\n",
+              vehicle.name.c_str());
+  std::printf("  %-44s %10s %8s %11s %13s %12s\n", "", "steps/s", "x before", "contact us", "penetration m",
+              "weight err N");
+  double before_steps_per_s = 0.0;
+  for (const Row& row : rows) {
+    const ContactFigures f = MeasureResting(vehicle, row.world);
+    if (before_steps_per_s == 0.0) before_steps_per_s = f.steps_per_s;
+    const double contact_us = 1e6 / f.steps_per_s - 1e6 / air_steps_per_s;
+    std::printf("  %-44s %10.0f %8.2f %11.1f %13.2e %12.2e\n", row.name.c_str(), f.steps_per_s,
+                f.steps_per_s / before_steps_per_s, contact_us, f.max_penetration_m, f.weight_error_N);
+    (*report)["contact"]["iapsim"].push_back({{"configuration", row.name},
+                                              {"steps_per_s", f.steps_per_s},
+                                              {"contacts", f.contacts},
+                                              {"contact_us_per_step", contact_us},
+                                              {"max_penetration_m", f.max_penetration_m},
+                                              {"weight_error_N", f.weight_error_N}});
+  }
+  for (const std::string solver : {"Newton", "CG"}) {
+    const MujocoFigures f = MeasureMujocoResting(vehicle, solver, kSecondsPerFigure);
+    const std::string name = "MuJoCo " + f.version + " " + solver + " (no rotors, no controllers)";
+    std::printf("  %-44s %10.0f %8.2f %11s %13.2e %12.2e\n", name.c_str(), f.steps_per_s,
+                f.steps_per_s / before_steps_per_s, "", f.max_penetration_m, f.weight_error_N);
+    (*report)["contact"]["mujoco"].push_back({{"solver", solver},
+                                              {"version", f.version},
+                                              {"steps_per_s", f.steps_per_s},
+                                              {"contacts", f.contacts},
+                                              {"max_penetration_m", f.max_penetration_m},
+                                              {"weight_error_N", f.weight_error_N},
+                                              {"solver_iterations", f.solver_iterations}});
+  }
+  std::printf("  %-44s %10.0f\n", "iapsim in the air (no contact)", air_steps_per_s);
 }
 
 }  // namespace
@@ -58,24 +148,32 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
   const model::Vehicle three_star = model::LoadVehicle(vehicle_path);
   const int n_star = static_cast<int>(three_star.sub_aircraft.size());
   std::printf("physics steps/s, in process, one core, 1 ms steps (%.0f s per figure)\n", kSecondsPerFigure);
+  physics::WorldConfig awake;  // the contact solved every step: what a vehicle pushing on something costs
+  awake.sleep_after_s = 0.0;
   const double air = Measure(three_star, false);
-  const double ground = Measure(three_star, true);
+  const double ground = Measure(three_star, true, awake);
+  const double asleep = Measure(three_star, true);
   const double bare = physics::MeasureBareMultibodyStepsPerSecond(three_star, n_star, kSecondsPerFigure);
   std::printf("  %-38s %10.0f  (%.2f of bare Bullet)\n", (three_star.name + ", in the air").c_str(), air, air / bare);
-  std::printf("  %-38s %10.0f  (%.2f of bare Bullet)\n", (three_star.name + ", resting on the ground").c_str(),
-              ground, ground / bare);
+  std::printf("  %-38s %10.0f  (%.2f of bare Bullet, %.2f of in the air)\n",
+              (three_star.name + ", resting on the ground").c_str(), ground, ground / bare, ground / air);
+  std::printf("  %-38s %10.0f  (%.2f of in the air)\n", (three_star.name + ", ... asleep (default)").c_str(),
+              asleep, asleep / air);
   std::printf("  %-38s %10.0f\n", "bare Bullet multibody, same size", bare);
   (*report)["physics"]["vehicle"] = three_star.name;
   (*report)["physics"]["air_steps_per_s"] = air;
   (*report)["physics"]["ground_steps_per_s"] = ground;
+  (*report)["physics"]["ground_asleep_steps_per_s"] = asleep;
   (*report)["physics"]["bare_steps_per_s"] = bare;
+  BenchContact(three_star, air, &(*report)["physics"]);
 
   std::printf("\n  %3s %12s %8s %12s %12s %14s\n", "n", "in the air", "vs bare", "on ground", "bare", "us/step (air)");
+  std::printf("  %3s %12s %8s %12s\n", "", "", "", "(awake)");
   double first_us = 0.0;
   for (const int n : {2, 3, 4, 6, 8}) {
     const model::Vehicle vehicle = WithSubAircraft(three_star, n);
     const double a = Measure(vehicle, false);
-    const double g = Measure(vehicle, true);
+    const double g = Measure(vehicle, true, awake);
     const double b = physics::MeasureBareMultibodyStepsPerSecond(three_star, n, kSecondsPerFigure);
     const double us = 1e6 / a;
     if (first_us == 0.0) first_us = us;

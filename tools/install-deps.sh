@@ -19,8 +19,8 @@ packages=(
   # rendering: OSMesa (llvmpipe), EGL and GL headers, libdeflate for PNG encoding, decoding and video through OpenCV
   libosmesa6-dev libegl-dev libgl-dev libdeflate-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev
-  # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  # tests and benchmarks (MuJoCo: the reference beside iapsim in `iapsim bench physics`)
+  libgtest-dev libgmock-dev libbenchmark-dev libmujoco-dev
 )
 
 missing=()
