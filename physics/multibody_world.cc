@@ -331,6 +331,12 @@ struct MultibodyWorld::Impl {
       transform.setRotation(Bt(Eigen::Quaterniond(X_CS.linear())));
       X_C_children.resize(children.size(), transform);  // every piece this shape made
     }
+    // one shape in the body's frame needs no compound around it (a sub-aircraft's box: its collision against
+    // the ground then skips a compound algorithm a step)
+    if (children.size() == 1 && X_C_children[0] == btTransform::getIdentity()) {
+      shapes.push_back(std::move(children[0]));
+      return shapes.back().get();
+    }
     // a tree of the children's bounds pays off for many (a decomposed mesh: a pole in the funnel's 97 pieces
     // steps 8% faster), not for a vehicle's few shapes
     auto compound = std::make_unique<btCompoundShape>(
