@@ -40,8 +40,7 @@ model::Vehicle WithSubAircraft(const model::Vehicle& base, int n) {
 
 physics::SimulationConfig Scene(const model::Vehicle& vehicle, bool contacts, const physics::WorldConfig& world) {
   physics::SimulationConfig config;
-  config.world = world;
-  config.world.ground = contacts;
+  config.world = world;  // with the ground: in the air it is 2 m below, as in a flight
   physics::VehicleSpec spec;
   spec.name = "iap";
   spec.vehicle = vehicle;
@@ -53,7 +52,7 @@ physics::SimulationConfig Scene(const model::Vehicle& vehicle, bool contacts, co
   return config;
 }
 
-// In the air (no ground), hovering; or resting on the ground with idle rotors.
+// In the air (the ground 2 m below), hovering; or resting on the ground with idle rotors.
 double Measure(const model::Vehicle& vehicle, bool contacts, const physics::WorldConfig& world = {}) {
   physics::Simulation simulation(Scene(vehicle, contacts, world));
   return physics::MeasureStepsPerSecond(&simulation, kSecondsPerFigure);

@@ -228,11 +228,31 @@ void ContactSolver::convertContacts(btPersistentManifold** manifolds, int num_ma
   bullet_manifolds_.resize(0);
   factored_manifolds_.resize(0);
   for (int m = 0; m < num_manifolds; ++m) {
-    (Factorable(*manifolds[m]) ? factored_manifolds_ : bullet_manifolds_).push_back(manifolds[m]);
+    btPersistentManifold* manifold = manifolds[m];
+    // most manifolds of a vehicle in the air (its boxes against the ground plane) have no point to solve
+    bool solved = false;
+    for (int p = 0; p < manifold->getNumContacts(); ++p) {
+      solved = solved || manifold->getContactPoint(p).getDistance() <= manifold->getContactProcessingThreshold();
+    }
+    if (!solved) {
+      ResetUnsolved(*manifold);
+    } else {
+      (Factorable(*manifold) ? factored_manifolds_ : bullet_manifolds_).push_back(manifold);
+    }
   }
   btMultiBodyConstraintSolver::convertContacts(bullet_manifolds_.size() > 0 ? &bullet_manifolds_[0] : nullptr,
                                                bullet_manifolds_.size(), info);
   for (int m = 0; m < factored_manifolds_.size(); ++m) AddRows(*factored_manifolds_[m], info);
+}
+
+// a point not solved this step has nothing to warm start from when it comes back (as in Bullet's setup)
+void ContactSolver::ResetUnsolved(btManifoldPoint& point) {
+  point.m_appliedImpulse = 0.0;
+  point.m_prevRHS = 0.0;
+}
+
+void ContactSolver::ResetUnsolved(btPersistentManifold& manifold) {
+  for (int p = 0; p < manifold.getNumContacts(); ++p) ResetUnsolved(manifold.getContactPoint(p));
 }
 
 // between multibodies with spherical and fixed joints and static bodies, with Bullet's default friction
@@ -293,8 +313,7 @@ void ContactSolver::AddRows(btPersistentManifold& manifold, const btContactSolve
   for (int p = 0; p < manifold.getNumContacts(); ++p) {
     btManifoldPoint& point = manifold.getContactPoint(p);
     if (point.getDistance() > manifold.getContactProcessingThreshold()) {
-      point.m_appliedImpulse = 0.0;  // not solved: nothing to warm start from when it comes back
-      point.m_prevRHS = 0.0;
+      ResetUnsolved(point);
       continue;
     }
     const int normal_index = m_multiBodyNormalContactConstraints.size();

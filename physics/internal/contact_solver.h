@@ -22,6 +22,7 @@
 //    other than spherical and fixed, movable rigid bodies and rolling or spinning friction keep Bullet's rows.
 
 #include <BulletDynamics/Featherstone/btMultiBody.h>
+#include <BulletCollision/NarrowPhaseCollision/btManifoldPoint.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 
 #include <Eigen/Core>
@@ -107,6 +108,8 @@ class ContactSolver final : public btMultiBodyConstraintSolver {
   };
 
   bool Factorable(const btPersistentManifold& manifold);
+  static void ResetUnsolved(btManifoldPoint& point);
+  static void ResetUnsolved(btPersistentManifold& manifold);
   const MultibodyMass* MassOf(btMultiBody* multibody);
   Side SideOf(const btCollisionObject* object, double step_s);
   void AddRows(btPersistentManifold& manifold, const btContactSolverInfo& info);
