@@ -146,40 +146,71 @@ TEST(ContactSolver, FactoredRowsStepAContactSceneAsBulletsRowsDo) {
   EXPECT_LT(max_force_difference_N, 1e-6);
 }
 
-// The box test that culls convex pairs before GJK never calls two boxes apart that come within the gap: random
-// boxes, their distance estimated from points spread over both (an upper bound of the true distance).
-TEST(OrientedBoxesApart, NeverSeparatesBoxesWithinTheGap) {
+// The test that culls convex pairs before GJK never calls two bounds (boxes and cylinders) apart that come within
+// the gap: random pairs, their distance estimated from points spread through both (an upper bound of the true
+// distance).
+TEST(BoundsApart, NeverSeparatesBoundsWithinTheGap) {
   std::mt19937 random(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  const auto rotation = [&] { return Eigen::Quaterniond(Eigen::Vector4d(u(random), u(random), u(random), u(random)).normalized()).toRotationMatrix(); };
+  const auto make = [&](bool cylinder) {
+    internal::Bound bound;
+    bound.kind = cylinder ? internal::Bound::Kind::kCylinder : internal::Bound::Kind::kBox;
+    bound.R_WB = Eigen::Quaterniond(Eigen::Vector4d(u(random), u(random), u(random), u(random)).normalized())
+                     .toRotationMatrix();
+    bound.half_m = (Eigen::Vector3d(u(random), u(random), u(random)).array() + 1.2) * 0.1;
+    if (cylinder) bound.half_m.y() = bound.half_m.x();
+    bound.center_W = Eigen::Vector3d(u(random), u(random), u(random)) * 0.6;
+    return bound;
+  };
+  // points through a bound: a 9 x 9 x 9 grid of its box, those of a cylinder within its radius
+  const auto samples = [](const internal::Bound& bound) {
+    std::vector<Eigen::Vector3d> points;
+    for (int i = 0; i < 729; ++i) {
+      const Eigen::Vector3d s((i % 9) / 4.0 - 1.0, (i / 9 % 9) / 4.0 - 1.0, (i / 81) / 4.0 - 1.0);
+      if (bound.kind == internal::Bound::Kind::kCylinder && s.head<2>().norm() > 1.0) continue;
+      points.push_back(bound.center_W + bound.R_WB * bound.half_m.cwiseProduct(s));
+    }
+    return points;
+  };
   int apart = 0, near = 0;
   for (int trial = 0; trial < 1000; ++trial) {
-    const Eigen::Vector3d half_a = (Eigen::Vector3d(u(random), u(random), u(random)).array() + 1.2) * 0.1;
-    const Eigen::Vector3d half_b = (Eigen::Vector3d(u(random), u(random), u(random)).array() + 1.2) * 0.1;
-    const Eigen::Matrix3d R_WA = rotation(), R_WB = rotation();
-    const Eigen::Vector3d c_a = Eigen::Vector3d::Zero();
-    const Eigen::Vector3d c_b = Eigen::Vector3d(u(random), u(random), u(random)) * 0.6;
+    const internal::Bound a = make(trial % 3 == 0);
+    const internal::Bound b = make(trial % 2 == 0);
     const double gap_m = 0.02;
-    // distance of sampled points (a 9 x 9 x 9 grid in each box): the true distance is at most this
+    const std::vector<Eigen::Vector3d> points_a = samples(a), points_b = samples(b);
     double sampled_m = 1e9;
-    for (int i = 0; i < 729; ++i) {
-      const Eigen::Vector3d s_a((i % 9) / 4.0 - 1.0, (i / 9 % 9) / 4.0 - 1.0, (i / 81) / 4.0 - 1.0);
-      const Eigen::Vector3d p_a = c_a + R_WA * half_a.cwiseProduct(s_a);
-      for (int j = 0; j < 729; j += 7) {
-        const Eigen::Vector3d s_b((j % 9) / 4.0 - 1.0, (j / 9 % 9) / 4.0 - 1.0, (j / 81) / 4.0 - 1.0);
-        sampled_m = std::min(sampled_m, (p_a - (c_b + R_WB * half_b.cwiseProduct(s_b))).norm());
-      }
+    for (const auto& p : points_a) {
+      for (size_t j = 0; j < points_b.size(); j += 7) sampled_m = std::min(sampled_m, (p - points_b[j]).norm());
     }
-    const bool separated = internal::OrientedBoxesApart(c_a, R_WA, half_a, c_b, R_WB, half_b, gap_m);
+    const bool separated = internal::BoundsApart(a, b, gap_m);
     if (sampled_m <= gap_m) {
       EXPECT_FALSE(separated) << trial;
     }
     apart += separated;
     near += sampled_m <= gap_m;
   }
-  std::printf("box pairs: %d culled, %d within the gap (never culled)\n", apart, near);
-  EXPECT_GT(apart, 50);  // it does cull
-  EXPECT_GT(near, 50);
+  std::printf("bound pairs: %d culled, %d within the gap (never culled)\n", apart, near);
+  EXPECT_GT(apart, 30);  // it does cull
+  EXPECT_GT(near, 30);
+}
+
+// A pole in a hole: a cylinder of radius 15 mm along z, a wall piece 10 mm from its surface off a diagonal of
+// its cross-section, where a box around the cylinder would reach within 4 mm.
+TEST(BoundsApart, ACylinderIsCulledAsACylinderNotItsBox) {
+  internal::Bound pole;
+  pole.kind = internal::Bound::Kind::kCylinder;
+  pole.half_m = Eigen::Vector3d(0.015, 0.015, 0.5);
+  internal::Bound wall;
+  const Eigen::Vector3d diagonal = Eigen::Vector3d(1.0, 1.0, 0.0).normalized();
+  wall.R_WB.col(0) = diagonal;  // radial, the piece 5 mm thick, 4 mm wide, 100 mm long
+  wall.R_WB.col(1) = Eigen::Vector3d::UnitZ().cross(diagonal);
+  wall.R_WB.col(2) = Eigen::Vector3d::UnitZ();
+  wall.half_m = Eigen::Vector3d(0.0025, 0.002, 0.05);
+  wall.center_W = (0.025 + 0.0025) * diagonal;
+  EXPECT_TRUE(internal::BoundsApart(pole, wall, 0.0066));
+  internal::Bound pole_box = pole;
+  pole_box.kind = internal::Bound::Kind::kBox;
+  EXPECT_FALSE(internal::BoundsApart(pole_box, wall, 0.0066));
 }
 
 // A thin plate turned 30 degrees about two axes: its principal box holds every point and is as thin as the plate,

@@ -201,9 +201,9 @@ TEST(MeshCollision, APoleDroppedIntoTheFunnelEndsInTheHole) {
   EXPECT_LT(p_W_lower_end.head<2>().norm(), kFunnelHoleRadius_m - radius_m + 1e-3);
   // leaning in the hole, the end's centre is above the floor by up to radius·sin(tilt)
   EXPECT_NEAR(p_W_lower_end.z(), -0.5 + kFunnelFloor_m, radius_m * std::sin(tilt_rad) + 5e-4);
-  // leaning on the wall: the converged contacts let it twist a little about its axis (no rolling or
-  // torsional friction), without gaining energy
-  EXPECT_LT((state.p_WB_m - p_WB_2s_m).norm(), 5e-4);
+  // leaning on the wall it may twist about its axis, which no friction resists (no rolling or torsional
+  // friction), but it never gains energy and does not leave the wall
+  EXPECT_LT((state.p_WB_m - p_WB_2s_m).norm(), 2e-3);
   EXPECT_LT(energy_gain_J, 1e-5);
 }
 

@@ -7,6 +7,7 @@
 #include <BulletCollision/CollisionDispatch/btConvexConvexAlgorithm.h>
 #include <BulletCollision/CollisionDispatch/btManifoldResult.h>
 #include <BulletCollision/CollisionShapes/btCollisionShape.h>
+#include <BulletCollision/CollisionShapes/btCylinderShape.h>
 #include <BulletCollision/NarrowPhaseCollision/btPersistentManifold.h>
 
 #include <algorithm>
@@ -26,36 +27,59 @@ Eigen::Matrix3d Eig(const btMatrix3x3& m) {
   return out;
 }
 
-// A shape's box in its own frame (Bullet's local bounds, margin included), placed in W.
-struct OrientedBox {
-  Eigen::Vector3d center_W;
-  Eigen::Matrix3d R_WB;
-  Eigen::Vector3d half_m;
-};
-
-OrientedBox BoxOf(const btCollisionObjectWrapper& object) {
+// A shape's bound in W: a cylinder itself, a mesh piece's principal box, else Bullet's bounds in the shape's
+// frame (margins included).
+Bound BoundOf(const btCollisionObjectWrapper& object) {
   const btCollisionShape* shape = object.getCollisionShape();
   const btTransform& X_WS = object.getWorldTransform();
   const Eigen::Matrix3d R_WS = Eig(X_WS.getBasis());
   const Eigen::Vector3d p_WS = Eig(X_WS.getOrigin());
-  OrientedBox box;
+  Bound bound;
+  if (shape->getShapeType() == CYLINDER_SHAPE_PROXYTYPE) {
+    const auto* cylinder = static_cast<const btCylinderShape*>(shape);
+    const int axis = cylinder->getUpAxis();
+    bound.kind = Bound::Kind::kCylinder;
+    bound.center_W = p_WS;
+    // the cylinder's axis last: columns (axis + 1, axis + 2, axis) of its frame
+    bound.R_WB << R_WS.col((axis + 1) % 3), R_WS.col((axis + 2) % 3), R_WS.col(axis);
+    const double radius_m = cylinder->getRadius();
+    bound.half_m = Eigen::Vector3d(radius_m, radius_m, cylinder->getHalfExtentsWithMargin()[axis]);
+    return bound;
+  }
   if (const auto* principal = static_cast<const ShapeBox*>(shape->getUserPointer())) {
-    box.R_WB = R_WS * principal->R_SB;
-    box.center_W = p_WS + R_WS * principal->center_S;
-    box.half_m = principal->half_m;
-    return box;
+    bound.R_WB = R_WS * principal->R_SB;
+    bound.center_W = p_WS + R_WS * principal->center_S;
+    bound.half_m = principal->half_m;
+    return bound;
   }
   btTransform identity;
   identity.setIdentity();
   btVector3 min, max;
   shape->getAabb(identity, min, max);
-  box.R_WB = R_WS;
-  box.center_W = p_WS + R_WS * Eig(0.5 * (min + max));
-  box.half_m = Eig(0.5 * (max - min));
-  return box;
+  bound.R_WB = R_WS;
+  bound.center_W = p_WS + R_WS * Eig(0.5 * (min + max));
+  bound.half_m = Eig(0.5 * (max - min));
+  return bound;
 }
 
-// GJK only for pairs whose boxes are within the distance at which Bullet keeps contact points: beyond it
+// how far the bound reaches from its centre along the unit direction d
+double Extent(const Bound& bound, const Eigen::Vector3d& d) {
+  if (bound.kind == Bound::Kind::kBox) return bound.half_m.dot((bound.R_WB.transpose() * d).cwiseAbs());
+  const double along = std::abs(d.dot(bound.R_WB.col(2)));
+  return bound.half_m.x() * std::sqrt(std::max(0.0, 1.0 - along * along)) + bound.half_m.z() * along;
+}
+
+// the directions whose cross products give separating axes: a box's edges, a cylinder's axis
+int EdgeDirections(const Bound& bound, Eigen::Vector3d* directions) {
+  if (bound.kind == Bound::Kind::kCylinder) {
+    directions[0] = bound.R_WB.col(2);
+    return 1;
+  }
+  for (int i = 0; i < 3; ++i) directions[i] = bound.R_WB.col(i);
+  return 3;
+}
+
+// GJK only for pairs whose bounds are within the distance at which Bullet keeps contact points: beyond it
 // GJK finds no point and Bullet's manifold would drop the old ones, which is what a culled pair does.
 class CulledConvexAlgorithm final : public btCollisionAlgorithm {
  public:
@@ -79,9 +103,7 @@ class CulledConvexAlgorithm final : public btCollisionAlgorithm {
                                               shape1->getContactBreakingThreshold(gContactBreakingThreshold))
                                    : gContactBreakingThreshold) +
                          result->m_closestPointDistanceThreshold;
-    const OrientedBox a = BoxOf(*body0);
-    const OrientedBox b = BoxOf(*body1);
-    if (!OrientedBoxesApart(a.center_W, a.R_WB, a.half_m, b.center_W, b.R_WB, b.half_m, gap_m)) {
+    if (!BoundsApart(BoundOf(*body0), BoundOf(*body1), gap_m)) {
       gjk_->processCollision(body0, body1, dispatch_info, result);
       return;
     }
@@ -144,32 +166,31 @@ ShapeBox PrincipalBox(const std::vector<Eigen::Vector3d>& points_S) {
   return box;
 }
 
-bool OrientedBoxesApart(const Eigen::Vector3d& center_a_W, const Eigen::Matrix3d& R_WA,
-                        const Eigen::Vector3d& half_a_m, const Eigen::Vector3d& center_b_W,
-                        const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& half_b_m, double gap_m) {
-  // in A's frame: B's rotation R and centre t; a box grown by gap_m on every side stands for "within gap_m"
-  const Eigen::Matrix3d R = R_WA.transpose() * R_WB;
-  const Eigen::Vector3d t = R_WA.transpose() * (center_b_W - center_a_W);
-  const Eigen::Vector3d a = half_a_m.array() + gap_m;
-  const Eigen::Vector3d& b = half_b_m;
-  // |R| plus a little, so that near-parallel edges (a cross product close to zero) never separate wrongly
-  const Eigen::Matrix3d abs_R = R.cwiseAbs().array() + 1e-9;
-  for (int i = 0; i < 3; ++i) {  // A's faces
-    if (std::abs(t[i]) > a[i] + b.dot(abs_R.row(i))) return true;
+bool BoundsApart(const Bound& a, const Bound& b, double gap_m) {
+  const Eigen::Vector3d between = b.center_W - a.center_W;
+  const auto apart_along = [&](const Eigen::Vector3d& axis) {
+    const double length = axis.norm();
+    if (length < 1e-9) return false;  // parallel edges: no axis
+    const Eigen::Vector3d d = axis / length;
+    return std::abs(d.dot(between)) > Extent(a, d) + Extent(b, d) + gap_m;
+  };
+  Eigen::Vector3d edges_a[3], edges_b[3];
+  const int count_a = EdgeDirections(a, edges_a);
+  const int count_b = EdgeDirections(b, edges_b);
+  // faces of a box (its edge directions are its face normals), a cylinder's axis
+  for (int i = 0; i < count_a; ++i) {
+    if (apart_along(edges_a[i])) return true;
   }
-  for (int j = 0; j < 3; ++j) {  // B's faces
-    if (std::abs(t.dot(R.col(j))) > a.dot(abs_R.col(j)) + b[j]) return true;
+  for (int j = 0; j < count_b; ++j) {
+    if (apart_along(edges_b[j])) return true;
   }
-  for (int i = 0; i < 3; ++i) {  // edge pairs: A's axis i x B's axis j
-    const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;
-    for (int j = 0; j < 3; ++j) {
-      const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
-      const double ra = a[i1] * abs_R(i2, j) + a[i2] * abs_R(i1, j);
-      const double rb = b[j1] * abs_R(i, j2) + b[j2] * abs_R(i, j1);
-      if (std::abs(t[i2] * R(i1, j) - t[i1] * R(i2, j)) > ra + rb) return true;
+  for (int i = 0; i < count_a; ++i) {
+    for (int j = 0; j < count_b; ++j) {
+      if (apart_along(edges_a[i].cross(edges_b[j]))) return true;
     }
   }
-  return false;
+  // round shapes separate along the line between them, which none of the above may be
+  return (a.kind == Bound::Kind::kCylinder || b.kind == Bound::Kind::kCylinder) && apart_along(between);
 }
 
 CollisionConfiguration::CollisionConfiguration()

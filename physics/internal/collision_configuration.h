@@ -1,10 +1,11 @@
 #pragma once
 // Bullet's default collision configuration, with one change: a pair of convex shapes that Bullet would hand to
 // GJK (btConvexConvexAlgorithm: cylinders, cones and convex hulls against each other and against boxes) first
-// has its two oriented bounding boxes tested for separation, and goes to GJK only when they overlap within
-// the contact breaking distance. Bullet culls the children of a compound by world-aligned boxes only, so the
-// §VI-E pole (1 m long, pitched) overlaps 96 of the funnel's 97 pieces' boxes and ran GJK on each of them
-// every step: 118,000 of the peg-in-hole step's 290,000 instructions (callgrind). Internal to physics/.
+// has its two bounds (oriented boxes, or the cylinder itself) tested for separation, and goes to GJK only when
+// they come within the contact breaking distance. Bullet culls the children of a compound by world-aligned
+// boxes only, so the §VI-E pole (1 m long, pitched) overlapped 96 of the funnel's 97 pieces' boxes and ran GJK
+// on each of them every step, in the hole 650,000 of a step's 1.3 M instructions (callgrind). Internal to
+// physics/.
 
 #include <BulletCollision/CollisionDispatch/btDefaultCollisionConfiguration.h>
 
@@ -25,12 +26,21 @@ struct ShapeBox {
 /// The box along the principal axes of `points_S` (their covariance's eigenvectors) that holds them all.
 ShapeBox PrincipalBox(const std::vector<Eigen::Vector3d>& points_S);
 
-/// Whether two oriented boxes (centres in W, rotations box -> W, half extents) are further apart than
-/// `gap_m` along one of the 15 separating axes of the box-box test (Gottschalk et al., "OBBTree", SIGGRAPH
-/// 1996). False means they may be within `gap_m`.
-bool OrientedBoxesApart(const Eigen::Vector3d& center_a_W, const Eigen::Matrix3d& R_WA,
-                        const Eigen::Vector3d& half_a_m, const Eigen::Vector3d& center_b_W,
-                        const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& half_b_m, double gap_m);
+/// What a convex shape is culled with: its oriented box, or the cylinder itself (a box around a pole 1 m long
+/// and 15 mm thick reaches 21 mm from its axis at the corners, which in a 25 mm hole is every wall piece).
+struct Bound {
+  enum class Kind { kBox, kCylinder };
+  Kind kind = Kind::kBox;
+  Eigen::Vector3d center_W = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d R_WB = Eigen::Matrix3d::Identity();  // a cylinder's axis is the third column
+  Eigen::Vector3d half_m = Eigen::Vector3d::Zero();    // a box's half extents; a cylinder's (r, r, half length)
+};
+
+/// Whether two bounds are further apart than `gap_m` along one of the separating axes tried: each box's face
+/// normals, each cylinder's axis, their cross products and the line between the centres, each with the
+/// shapes' exact extent along it (Ericson, "Real-Time Collision Detection", §4.4 and §5.5). False means they
+/// may be within `gap_m`.
+bool BoundsApart(const Bound& a, const Bound& b, double gap_m);
 
 class CollisionConfiguration final : public btDefaultCollisionConfiguration {
  public:
