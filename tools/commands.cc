@@ -289,18 +289,20 @@ int Urdf(const std::string& vehicle_path, const std::string& output) {
   return 0;
 }
 
-int Bench(const std::string& what, const std::string& vehicle_path, const std::string& scene_path,
-          const std::string& json_path) {
+int Bench(const BenchArgs& args) {
   nlohmann::json report;
   int status = 0;
-  if (what == "bus" || what == "all") status |= BenchBus(&report);
-  if (what == "all") std::printf("\n");
-  if (what == "physics" || what == "all") status |= BenchPhysics(vehicle_path, &report);
-  if (what == "all") std::printf("\n");
-  if (what == "render" || what == "all") status |= BenchRender(scene_path, vehicle_path, &report);
-  if (!json_path.empty()) {
-    std::ofstream(json_path) << report.dump(2) << "\n";
-    std::printf("figures written to %s\n", json_path.c_str());
+  const bool all = args.what == "all";
+  if (args.what == "bus" || all) status |= BenchBus(&report);
+  if (all) std::printf("\n");
+  if (args.what == "physics" || all) status |= BenchPhysics(args.vehicle, &report);
+  if (all) std::printf("\n");
+  if (args.what == "render" || all) status |= BenchRender(args.scene, args.vehicle, &report);
+  if (all) std::printf("\n");
+  if (args.what == "record" || all) status |= BenchRecord(args.scenario, args.repeats, &report);
+  if (!args.json.empty()) {
+    std::ofstream(args.json) << report.dump(2) << "\n";
+    std::printf("figures written to %s\n", args.json.c_str());
   }
   return status;
 }
