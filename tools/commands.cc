@@ -84,11 +84,10 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
   std::printf("  %s/scenario.resolved.yaml   configuration as used\n", result.run_dir.c_str());
   std::printf("  %s/metrics.json             figures of the run\n", result.run_dir.c_str());
   if (metrics.is_object() && metrics["processes"].contains("recorder")) {
-    const auto& recorded = metrics["processes"]["recorder"]["process"]["recorded"];
-    uint64_t total = 0;
-    for (const auto& [topic, count] : recorded.items()) total += count.get<uint64_t>();
-    std::printf("  %s/run.bag                  %llu messages on %zu topics (iapsim info)\n",
-                result.run_dir.c_str(), static_cast<unsigned long long>(total), recorded.size());
+    const auto& recorder = metrics["processes"]["recorder"]["process"];
+    std::printf("  %s/run.bag                  %llu messages on %zu topics, %.1f MiB (iapsim info)\n",
+                result.run_dir.c_str(), recorder["messages"].get<unsigned long long>(),
+                recorder["recorded"].size(), recorder["bag_bytes"].get<double>() / (1 << 20));
   }
   std::printf("  %s/log.txt, logs/           launcher and per-process logs\n", result.run_dir.c_str());
   EvaluateRun(result.run_dir, evaluation);

@@ -134,6 +134,15 @@ TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeter
         EXPECT_EQ(counters["lost"].get<uint64_t>(), 0u) << process << " " << topic;
       }
     }
+    // the recorder's report: what it wrote and where its time went
+    const auto& recorder = metrics["processes"]["recorder"]["process"];
+    EXPECT_EQ(recorder["messages"].get<uint64_t>(), 100001u * 3 + 20001u);
+    EXPECT_EQ(recorder["bag_bytes"].get<uint64_t>(), fs::file_size(result.run_dir + "/run.bag"));
+    EXPECT_GT(recorder["record_bytes"].get<uint64_t>(), 100001u * 3 * 40);
+    EXPECT_GE(recorder["write_calls"].get<uint64_t>(), recorder["chunks"].get<uint64_t>());
+    for (const char* stage : {"receive", "records", "compress", "write"}) {
+      EXPECT_GE(recorder["time_s"][stage].get<double>(), 0.0) << stage;
+    }
     // record times are the sim time of the step that published the message
     int64_t last_uwb_ns = -1;
     bag.ForEach({"/iap/uwb"}, [&](const BagMessage& m) {
