@@ -100,7 +100,9 @@ class Recorder : public Process {
   }
 
   void Setup(Bus& bus) override {
-    bag_ = std::make_unique<BagWriter>(bag_path_);
+    BagWriterOptions options;
+    options.compression = recording_.compression == "lz4" ? BagCompression::kLz4 : BagCompression::kNone;
+    bag_ = std::make_unique<BagWriter>(bag_path_, options);
     bus_ = &bus;
     bus.SubscribeRaw("", [this](const uint8_t* data, size_t size, const MessageInfo& info) {
       OnMessage(data, size, info);
@@ -228,6 +230,9 @@ class Recorder : public Process {
     (*report)["bag_bytes"] = stats.file_bytes;
     (*report)["chunks"] = stats.chunks;
     (*report)["record_bytes"] = stats.record_bytes;
+    (*report)["compression"] = recording_.compression;
+    (*report)["compression_ratio"] =
+        stats.chunk_data_bytes > 0 ? static_cast<double>(stats.record_bytes) / stats.chunk_data_bytes : 1.0;
     (*report)["write_calls"] = stats.write_calls;
     // where the recorder's time went: copying messages off the bus, building bag records, compressing, and
     // the write system calls

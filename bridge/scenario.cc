@@ -153,6 +153,7 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
   recording.Optional("enabled", &s.recording.enabled);
   ReadTopicList(recording, "include", &s.recording.include);
   ReadTopicList(recording, "exclude", &s.recording.exclude);
+  recording.OptionalChoice("compression", &s.recording.compression, {"none", "lz4"});
   recording.Finish();
 
   // what `iapsim run` computes from the recording afterwards; tools/ validates it

@@ -46,6 +46,7 @@ struct RecordingConfig {
   bool enabled = true;
   std::vector<std::string> include;              // topic prefixes; empty: every topic
   std::vector<std::string> exclude{"/iapsim/"};  // protocol topics are not recorded by default
+  std::string compression = "none";              // of the bag's chunks: none | lz4
 };
 
 struct ProcessConfig {

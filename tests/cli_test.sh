@@ -45,6 +45,7 @@ grep -q "targets: recorded <= 1.3x unrecorded" "$work/bench.out" || fail "bench 
 import json, sys
 r = json.load(open(sys.argv[1]))['record']
 assert r['unrecorded']['messages'] == 0 and r['recorded']['messages'] == 16004, r
+assert r['recorded_lz4']['messages'] == 16004 and r['recorded_lz4']['bag_bytes'] < r['recorded']['bag_bytes'], r
 assert r['recorded']['bag_bytes'] > 0 and len(r['recorded']['wall_s']) == 1, r
 " "$work/bench.json" || fail "bench record: figures $(cat "$work/bench.json")"
 

@@ -1,7 +1,8 @@
 // iapsim bench record: what recording costs a lockstep flight. The same scenario (by default the three-star
-// spiral of `make run`: physics 1 kHz clock, control 200 Hz) runs with recording off and on, alternating in
-// one invocation so that both see the same machine load, and the figures compare medians and bests of the
-// launcher's wall time (start of the processes to the last exit, so the bag is complete and closed).
+// spiral of `make run`: physics 1 kHz clock, control 200 Hz) runs with recording off, on, and on with lz4
+// chunks, alternating in one invocation so that both see the same machine load, and the figures compare
+// medians and bests of the launcher's wall time (start of the processes to the last exit, so the bag is
+// complete and closed).
 
 #include <unistd.h>
 
@@ -98,6 +99,7 @@ int BenchRecord(const std::string& scenario, int repeats, nlohmann::json* report
   const std::vector<Variant> variants = {
       {"unrecorded", "recording off", {"recording.enabled=false"}},
       {"recorded", "recorded", {"recording.enabled=true"}},
+      {"recorded_lz4", "recorded, lz4", {"recording.enabled=true", "recording.compression=lz4"}},
   };
   const fs::path dir = fs::temp_directory_path() / ("iapsim-bench-record-" + std::to_string(getpid()));
   fs::create_directories(dir);

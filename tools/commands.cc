@@ -85,9 +85,15 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
   std::printf("  %s/metrics.json             figures of the run\n", result.run_dir.c_str());
   if (metrics.is_object() && metrics["processes"].contains("recorder")) {
     const auto& recorder = metrics["processes"]["recorder"]["process"];
-    std::printf("  %s/run.bag                  %llu messages on %zu topics, %.1f MiB (iapsim info)\n",
+    const std::string compression = recorder["compression"].get<std::string>();
+    char ratio[64] = "";
+    if (compression != "none") {
+      std::snprintf(ratio, sizeof(ratio), ", %s %.2fx smaller", compression.c_str(),
+                    recorder["compression_ratio"].get<double>());
+    }
+    std::printf("  %s/run.bag                  %llu messages on %zu topics, %.1f MiB%s (iapsim info)\n",
                 result.run_dir.c_str(), recorder["messages"].get<unsigned long long>(),
-                recorder["recorded"].size(), recorder["bag_bytes"].get<double>() / (1 << 20));
+                recorder["recorded"].size(), recorder["bag_bytes"].get<double>() / (1 << 20), ratio);
   }
   std::printf("  %s/log.txt, logs/           launcher and per-process logs\n", result.run_dir.c_str());
   EvaluateRun(result.run_dir, evaluation);

@@ -83,8 +83,8 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report);
 /// three stereo pairs (six images a frame), render only and render + PNG encode, with frame latencies.
 int BenchRender(const std::string& scene_path, const std::string& vehicle_path, nlohmann::json* report);
 
-/// Wall time of a lockstep scenario run `repeats` times each with recording off and on, alternating:
-/// best and median, real-time factor, the recorded/unrecorded ratio and the bag's size.
+/// Wall time of a lockstep scenario run `repeats` times each with recording off, on, and on with lz4,
+/// alternating: best and median, real-time factor, the recorded/unrecorded ratio and the bag's size.
 int BenchRecord(const std::string& scenario, int repeats, nlohmann::json* report);
 
 struct BenchArgs {

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <tuple>
 
 #include "bridge/bag.h"
 
@@ -163,6 +164,27 @@ TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeter
   }
 }
 
+TEST_F(LauncherTest, Lz4RecordingHoldsTheSameMessagesInASmallerBag) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
+  std::map<std::string, std::vector<std::tuple<std::string, int64_t, std::vector<uint8_t>>>> messages;
+  std::map<std::string, nlohmann::json> reports;
+  for (const std::string compression : {"none", "lz4"}) {
+    const LaunchResult result = Run(scenario, compression, {"recording.compression=" + compression});
+    ASSERT_EQ(result.exit_code, 0) << result.message;
+    reports[compression] = Metrics(result)["processes"]["recorder"]["process"];
+    BagReader(result.run_dir + "/run.bag").ForEach({}, [&](const BagMessage& m) {
+      messages[compression].emplace_back(m.topic, m.record_time_ns, m.bytes);
+      return true;
+    });
+  }
+  EXPECT_EQ(messages["none"].size(), 2001u * 3 + 401u);
+  EXPECT_TRUE(messages["lz4"] == messages["none"]) << "the lz4 bag holds other messages";
+  EXPECT_EQ(reports["lz4"]["compression"], "lz4");
+  EXPECT_GT(reports["lz4"]["compression_ratio"].get<double>(), 1.5);
+  EXPECT_LT(reports["lz4"]["bag_bytes"].get<uint64_t>(), reports["none"]["bag_bytes"].get<uint64_t>());
+  EXPECT_EQ(reports["none"]["compression_ratio"].get<double>(), 1.0);
+}
+
 TEST_F(LauncherTest, KilledParticipantEndsTheRunWithinOneSecondAndLeavesAReadableBag) {
   const std::string scenario = WriteScenario("loop", LoopScenario(60.0));
   const LaunchResult result = Run(scenario, "run", {"processes.control.params.kill_at_step=1500"});
@@ -212,6 +234,8 @@ TEST_F(LauncherTest, ConfigurationErrorsNameTheFileLineAndKey) {
        "did you mean 'noise_m'"},
       {"exec", "exec: iapsim_test_node\n    role: clock", "exec: no_such_program\n    role: clock",
        "no executable"},
+      {"compression", "seed: 42\n", "seed: 42\nrecording: {compression: zstd}\n",
+       "recording.compression: must be one of none, lz4"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.name);
