@@ -121,6 +121,9 @@ struct ConnectionInfo {
   TypeInfo type;
   int64_t id = -1;              // in the bag: numbered in order of first message, as rosbag does
   std::vector<uint8_t> record;  // the connection record, encoded at first message
+  // the header of its message data records, whose last field is the time: a message copies it and sets
+  // the time
+  std::vector<uint8_t> message_header;
 };
 
 struct IndexEntry {
@@ -233,6 +236,11 @@ struct BagWriter::Impl {
         .Text("message_definition", connection.type.definition)
         .Text("topic", connection.topic)
         .Text("type", connection.type.datatype)
+        .End();
+    Header(&connection.message_header)
+        .Value("conn", static_cast<uint32_t>(connection.id))
+        .Value("op", kOpMessageData)
+        .Time("time", 0)
         .End();
   }
 
@@ -375,7 +383,7 @@ uint32_t BagWriter::Connection(const std::string& topic, const TypeInfo& type, c
       .append(type.md5);
   const auto [it, inserted] =
       impl.handles.try_emplace(impl.key, static_cast<uint32_t>(impl.connections.size()));
-  if (inserted) impl.connections.push_back({topic, publisher, type, -1, {}});
+  if (inserted) impl.connections.push_back({topic, publisher, type, -1, {}, {}});
   return it->second;
 }
 
@@ -407,7 +415,9 @@ void BagWriter::Write(uint32_t connection, int64_t record_time_ns, const uint8_t
   std::vector<IndexEntry>& index = impl.chunk_index[id];
   if (index.empty()) impl.chunk_ids.push_back(id);
   index.push_back({time_ns, static_cast<uint32_t>(chunk.size())});
-  Header(&chunk).Value("conn", id).Value("op", kOpMessageData).Time("time", time_ns).End();
+  Append(&chunk, info.message_header.data(), info.message_header.size());
+  const BagTime time = ToBagTime(time_ns);
+  std::memcpy(chunk.data() + chunk.size() - sizeof(time), &time, sizeof(time));
   AppendU32(&chunk, static_cast<uint32_t>(size));
   Append(&chunk, data, size);
   impl.chunk_start_ns = std::min(impl.chunk_start_ns, time_ns);

@@ -78,6 +78,9 @@ struct MessageInfo {
   const std::string& publisher;
   uint64_t sequence;     // per topic and publisher, starting at 0
   int64_t sent_unix_ns;  // the publisher's wall clock (UnixTimeNs) when it sent the message
+  /// Numbers the (publisher, topic) pairs this bus has received from 0 up, in order of first message: a
+  /// subscriber keeps per-stream state in a vector instead of looking the two names up.
+  uint32_t stream;
 };
 
 /// Wall-clock time (CLOCK_REALTIME, ns since the Unix epoch): comparable between processes, and between

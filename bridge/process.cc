@@ -4,6 +4,7 @@
 #include <iapsim_msgs/Tick.h>
 #include <rosgraph_msgs/Clock.h>
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -272,10 +273,12 @@ class Runtime {
   int Finish() {
     nlohmann::json process_report = nlohmann::json::object();
     process_.Finish(&process_report);
+    const CpuTime cpu = ProcessCpuTime();
     nlohmann::json report = {{"bus", BusReport(bus_.stats())},
                              {"process", process_report},
                              {"completed", finished_},
-                             {"sim_time_s", static_cast<double>(sim_ns_) * 1e-9}};
+                             {"sim_time_s", static_cast<double>(sim_ns_) * 1e-9},
+                             {"cpu_s", {{"user", cpu.user_s}, {"system", cpu.system_s}}}};
     if (!late_acks_.empty()) {
       nlohmann::json late = nlohmann::json::object();
       for (size_t m = 0; m < late_acks_.size(); ++m) late[schedule_.members()[m].name] = late_acks_[m];
@@ -315,6 +318,13 @@ struct Arguments {
 };
 
 }  // namespace
+
+CpuTime ProcessCpuTime() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * t.tv_usec; };
+  return {seconds(usage.ru_utime), seconds(usage.ru_stime)};
+}
 
 int ProcessMain(int argc, char** argv, const std::string& description, const ProcessFactory& factory) {
   Arguments args;

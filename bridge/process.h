@@ -49,6 +49,13 @@ class Process {
   virtual void Finish(nlohmann::json* report) { (void)report; }
 };
 
+/// CPU time this process has used so far, all its threads (getrusage), in seconds.
+struct CpuTime {
+  double user_s = 0.0;
+  double system_s = 0.0;
+};
+CpuTime ProcessCpuTime();
+
 /// Builds the process from its params (reading every key it knows; unknown keys are rejected after).
 /// Must not touch the bus: it also runs for `--check`.
 using ProcessFactory =

@@ -7,9 +7,10 @@
 // participant that closes k only after every other process acknowledged k, so it loses nothing and two runs
 // write byte-identical bags.
 //
-// Cost per message: one hash lookup (publisher, topic, md5) and a copy into that publisher's buffer, reused
-// from step to step; closing a step copies the messages into the bag's chunk. The report in metrics.json
-// says where the time went (receiving, building records, compressing, writing) and what was written.
+// Cost per message: its stream (publisher, topic) found by number (MessageInfo::stream) and a copy into the
+// publisher's buffer, reused from step to step; closing a step copies the messages into the bag's chunk. The
+// report in metrics.json says where the time went (receiving, building records, compressing, writing) and
+// what was written.
 
 #include <memory>
 

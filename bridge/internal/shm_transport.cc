@@ -453,7 +453,8 @@ bool ShmPublisher::Publish(std::string_view topic, const ByteSpan* parts, int co
   }
   if (block) {
     // lossless: each target gets the record once it has room; those still full at the deadline miss it
-    std::vector<char> written(targets_.size(), 0);
+    std::vector<char>& written = written_;
+    written.assign(targets_.size(), 0);
     size_t remaining = targets_.size();
     while (remaining > 0) {
       for (size_t i = 0; i < targets_.size(); ++i) {

@@ -149,6 +149,7 @@ class ShmPublisher {
   int listen_fd_ = -1;
   std::vector<Link> links_;
   std::vector<Link*> targets_;
+  std::vector<char> written_;  // per target of a blocking Publish; storage reused
   std::vector<pollfd> poll_fds_;
   std::string stalled_;
 };

@@ -135,6 +135,9 @@ TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeter
         EXPECT_EQ(counters["lost"].get<uint64_t>(), 0u) << process << " " << topic;
       }
     }
+    for (const std::string process : {"physics", "control", "uwb", "recorder"}) {
+      EXPECT_GT(metrics["processes"][process]["cpu_s"]["user"].get<double>(), 0.0) << process;
+    }
     // the recorder's report: what it wrote and where its time went
     const auto& recorder = metrics["processes"]["recorder"]["process"];
     EXPECT_EQ(recorder["messages"].get<uint64_t>(), 100001u * 3 + 20001u);
