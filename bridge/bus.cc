@@ -403,12 +403,14 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
       std::this_thread::yield();
     }
   }
-  const auto left =
+  auto left =
       std::max(std::chrono::microseconds(0),
                timeout - std::chrono::duration_cast<std::chrono::microseconds>(SteadyClock::now() - start));
+  const bool announce = impl.options.poll_period.count() == 0;
+  if (!announce) left = std::min(left, impl.options.poll_period);
   auto& fds = impl.poll_fds;
   fds.clear();
-  if (!impl.shm_subscriber || impl.shm_subscriber->PrepareSleep(&fds)) {
+  if (!impl.shm_subscriber || impl.shm_subscriber->PrepareSleep(&fds, announce)) {
     if (impl.shm_publisher) fds.push_back({impl.shm_publisher->listen_fd(), POLLIN, 0});
     if (impl.zmq_peers) {
       auto& items = impl.poll_items;

@@ -618,9 +618,9 @@ bool ShmSubscriber::HasData() const {
   return false;
 }
 
-bool ShmSubscriber::PrepareSleep(std::vector<pollfd>* fds) {
+bool ShmSubscriber::PrepareSleep(std::vector<pollfd>* fds, bool announce) {
   for (auto& link : links_) {
-    if (link.page) link.page->SetSleeping(true);
+    if (link.page && announce) link.page->SetSleeping(true);
   }
   std::atomic_thread_fence(std::memory_order_seq_cst);  // see TakeSleeping
   if (HasData()) {

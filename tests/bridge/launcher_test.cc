@@ -9,10 +9,12 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 #include <tuple>
 
 #include "bridge/bag.h"
@@ -90,18 +92,20 @@ std::string FileBytes(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-// processes of this test's runs still alive (their command line names the test's directory)
-int ProcessesMentioning(const std::string& text) {
-  int count = 0;
+// processes other than this one whose command line holds `text` (a test's directory: its runs' processes)
+std::vector<pid_t> ProcessesMentioning(const std::string& text) {
+  std::vector<pid_t> pids;
   DIR* proc = opendir("/proc");
   while (dirent* entry = readdir(proc)) {
     if (entry->d_name[0] < '0' || entry->d_name[0] > '9') continue;
     std::ifstream in(std::string("/proc/") + entry->d_name + "/cmdline", std::ios::binary);
     const std::string cmdline((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (cmdline.find(text) != std::string::npos && std::to_string(getpid()) != entry->d_name) ++count;
+    if (cmdline.find(text) != std::string::npos && std::to_string(getpid()) != entry->d_name) {
+      pids.push_back(std::atoi(entry->d_name));
+    }
   }
   closedir(proc);
-  return count;
+  return pids;
 }
 
 TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeterministically) {
@@ -188,6 +192,71 @@ TEST_F(LauncherTest, Lz4RecordingHoldsTheSameMessagesInASmallerBag) {
   EXPECT_EQ(reports["none"]["compression_ratio"].get<double>(), 1.0);
 }
 
+TEST_F(LauncherTest, AStalledRecorderHoldsTheClockAtMaxLagStepsAndLosesNothing) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(30.0));
+  constexpr uint64_t kLag = 40;
+  // once the recorder has written its first chunk, it stops for half a second, as a stalled disk would stop
+  // it
+  std::thread staller([this] {
+    const fs::path bag = dir_ / "run" / "run.bag";
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    const auto bag_bytes = [&bag] {
+      std::error_code missing;
+      const auto bytes = fs::file_size(bag, missing);
+      return missing ? 0 : bytes;
+    };
+    while (bag_bytes() <= 4117 && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    // its command line: EXEC --scenario RUN_DIR/scenario.resolved.yaml ...
+    std::string recorder = "iapsim_recorder";
+    recorder += '\0';
+    recorder += "--scenario";
+    recorder += '\0';
+    recorder += (dir_ / "run").string();
+    for (const pid_t pid : ProcessesMentioning(recorder)) {
+      kill(pid, SIGSTOP);
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      kill(pid, SIGCONT);
+    }
+  });
+  const LaunchResult result = Run(scenario, "run", {"recording.max_lag_steps=" + std::to_string(kLag)});
+  staller.join();
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  const auto metrics = Metrics(result);
+  // acknowledged every max_lag_steps / 4 steps and at the last, not every step
+  EXPECT_EQ(metrics["processes"]["recorder"]["bus"]["topics"]["/iapsim/ack"]["sent"].get<uint64_t>(),
+            30000u / (kLag / 4) + 1);
+  // the clock ran ahead of the stalled recorder by max_lag_steps, no further, and waited there
+  const auto& lag = metrics["processes"]["physics"]["lag_steps"]["recorder"];
+  EXPECT_EQ(lag["limit"].get<uint64_t>(), kLag);
+  EXPECT_EQ(lag["max"].get<uint64_t>(), kLag);
+  EXPECT_GE(lag["clock_waits"].get<uint64_t>(), 1u);
+  // and nothing was dropped on the way
+  for (const std::string process : {"physics", "control", "uwb", "recorder"}) {
+    for (const auto& [topic, counters] : metrics["processes"][process]["bus"]["topics"].items()) {
+      EXPECT_EQ(counters["dropped"].get<uint64_t>(), 0u) << process << " " << topic;
+      EXPECT_EQ(counters["lost"].get<uint64_t>(), 0u) << process << " " << topic;
+    }
+  }
+  BagReader bag(result.run_dir + "/run.bag");
+  std::map<std::string, uint64_t> in_bag;
+  for (const auto& t : bag.Topics()) in_bag[t.topic] = t.count;
+  EXPECT_EQ(in_bag["/iap/state"], 30001u);
+  EXPECT_EQ(in_bag["/iap/cmd"], 30001u);
+  EXPECT_EQ(in_bag["/iap/uwb"], 6001u);
+}
+
+TEST_F(LauncherTest, WithoutLagTheRecorderAcknowledgesEveryStep) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
+  const LaunchResult result = Run(scenario, "run", {"recording.max_lag_steps=0"});
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  const auto metrics = Metrics(result);
+  EXPECT_FALSE(metrics["processes"]["physics"].contains("lag_steps"));
+  EXPECT_EQ(metrics["processes"]["recorder"]["bus"]["topics"]["/iapsim/ack"]["sent"].get<uint64_t>(), 2001u);
+  EXPECT_EQ(metrics["processes"]["recorder"]["process"]["messages"].get<uint64_t>(), 2001u * 3 + 401u);
+}
+
 TEST_F(LauncherTest, KilledParticipantEndsTheRunWithinOneSecondAndLeavesAReadableBag) {
   const std::string scenario = WriteScenario("loop", LoopScenario(60.0));
   const LaunchResult result = Run(scenario, "run", {"processes.control.params.kill_at_step=1500"});
@@ -211,7 +280,7 @@ TEST_F(LauncherTest, KilledParticipantEndsTheRunWithinOneSecondAndLeavesAReadabl
   EXPECT_LT(ended_after_s, 1.0) << "the run took " << ended_after_s << " s to end after the kill";
   EXPECT_GT(ended_after_s, 0.0);
   const auto metrics = Metrics(result);
-  EXPECT_EQ(ProcessesMentioning(dir_.string()), 0) << "processes left behind";
+  EXPECT_TRUE(ProcessesMentioning(dir_.string()).empty()) << "processes left behind";
   EXPECT_EQ(metrics["result"], "failed");
 }
 
@@ -221,7 +290,7 @@ TEST_F(LauncherTest, HungParticipantIsDetectedAndNamed) {
   EXPECT_EQ(result.exit_code, 1);
   EXPECT_NE(result.message.find("'uwb'"), std::string::npos) << result.message;
   EXPECT_NE(result.message.find("not responding"), std::string::npos) << result.message;
-  EXPECT_EQ(ProcessesMentioning(dir_.string()), 0) << "processes left behind";
+  EXPECT_TRUE(ProcessesMentioning(dir_.string()).empty()) << "processes left behind";
   BagReader bag(result.run_dir + "/run.bag");
   EXPECT_FALSE(bag.Topics().empty());
 }
@@ -239,6 +308,8 @@ TEST_F(LauncherTest, ConfigurationErrorsNameTheFileLineAndKey) {
        "no executable"},
       {"compression", "seed: 42\n", "seed: 42\nrecording: {compression: zstd}\n",
        "recording.compression: must be one of none, lz4"},
+      {"lag", "seed: 42\n", "seed: 42\nrecording: {max_lag_steps: 2000000}\n",
+       "recording.max_lag_steps: must be in [0, 1000000]"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.name);
