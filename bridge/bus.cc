@@ -412,6 +412,7 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
   fds.clear();
   if (!impl.shm_subscriber || impl.shm_subscriber->PrepareSleep(&fds, announce)) {
     if (impl.shm_publisher) fds.push_back({impl.shm_publisher->listen_fd(), POLLIN, 0});
+    bool event = true;  // ZeroMQ's poll does not say which descriptor woke it
     if (impl.zmq_peers) {
       auto& items = impl.poll_items;
       items.assign(1, zmq::pollitem_t{impl.subscriber.handle(), 0, ZMQ_POLLIN, 0});
@@ -423,10 +424,12 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
       }
     } else {
       const timespec wait{static_cast<time_t>(left.count() / 1000000), static_cast<long>(left.count() % 1000000) * 1000};
-      ppoll(fds.data(), fds.size(), &wait, nullptr);
+      event = ppoll(fds.data(), fds.size(), &wait, nullptr) != 0;
     }
-    if (impl.shm_subscriber) impl.shm_subscriber->WakeUp();
-    impl.Maintain(/*now=*/true);
+    if (impl.shm_subscriber && announce) impl.shm_subscriber->WakeUp();
+    // a socket's news (a subscriber, a bigger queue, a hang-up) is taken at once; after a timeout, as
+    // often as ever (a polling subscriber wakes a thousand times a second)
+    impl.Maintain(/*now=*/event);
   }
   return impl.DrainQueued(stats_, max_batch);
 }
