@@ -603,9 +603,9 @@ constexpr char kPythonDump[] =
     "for topic, (datatype, data, md5, _, _), t in bag.read_messages(raw=True):\n"
     "    lines.append('%s %s %s %d %s' % (topic, datatype, md5, t.to_nsec(), data.hex()))\n"
     "for c in bag._get_connections():\n"
-    "    lines.append('connection %s %s %s %s %s' % (c.topic, c.header['callerid'].decode(), c.datatype, "
-    "c.md5sum,\n"
-    "                                                 c.msg_def.encode().hex()))\n"
+    "    publisher = c.header['callerid'].decode()\n"
+    "    definition = c.msg_def.encode().hex()\n"
+    "    lines.append(' '.join(['connection', c.topic, publisher, c.datatype, c.md5sum, definition]))\n"
     "print('\\n'.join(sorted(lines)))\n";
 
 TEST(BagPython, DebianRosbagReadsEveryChunkAndConnection) {
