@@ -1,5 +1,6 @@
 #pragma once
-// ROS1 .bag files of raw (already serialized) messages. librosbag_storage stays behind this interface.
+// ROS1 .bag files of raw (already serialized) messages. The writer is the project's own (bag_writer.cc says
+// why); the reader is librosbag_storage's, behind this interface.
 
 #include <cstdint>
 #include <functional>
@@ -18,22 +19,52 @@ class BagError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// Writes a bag. Record times are sim time in nanoseconds; a bag cannot hold time 0 (ros::TIME_MIN is
-/// 1 ns), so a record time of 0 is stored as 1 ns. Message header stamps are payload and stay exact.
+enum class BagCompression { kNone, kLz4 };
+
+struct BagWriterOptions {
+  BagCompression compression =
+      BagCompression::kNone;  // per chunk; rosbag, rqt_bag and python rosbag read lz4
+  /// A chunk is written once its records pass this many bytes (before compression); rosbag's default.
+  size_t chunk_threshold_bytes = 768 * 1024;
+};
+
+/// What writing has cost so far.
+struct BagWriterStats {
+  uint64_t messages = 0;
+  uint64_t chunks = 0;
+  uint64_t record_bytes = 0;      // chunk contents before compression
+  uint64_t chunk_data_bytes = 0;  // chunk contents as stored (compressed or not)
+  uint64_t file_bytes = 0;        // the file's size
+  uint64_t write_calls = 0;       // system calls that wrote to the file
+  double write_s = 0.0;           // wall time in those calls
+  double compress_s = 0.0;
+};
+
+/// Writes a ROS bag (format 2.0). Record times are sim time in nanoseconds; a bag cannot hold time 0
+/// (ros::TIME_MIN is 1 ns), so a record time of 0 is stored as 1 ns. Message header stamps are payload and
+/// stay exact. Messages are kept in memory until their chunk is full; the file only ever grows by whole
+/// chunks, so the bag of a writer killed before Close is unindexed but `rosbag reindex` recovers every chunk
+/// written.
 class BagWriter {
  public:
   /// Creates (truncates) `path`. Throws BagError naming the file.
-  explicit BagWriter(const std::string& path);
+  explicit BagWriter(const std::string& path, const BagWriterOptions& options = {});
   ~BagWriter();  // closes
   BagWriter(const BagWriter&) = delete;
   BagWriter& operator=(const BagWriter&) = delete;
 
-  /// `type` must be complete (datatype, md5, definition): readers rebuild messages from the definition.
+  /// The connection of `topic` carrying `type` from `publisher`, made on first use. `type` must be complete
+  /// (datatype, md5, definition): readers rebuild messages from the definition.
+  uint32_t Connection(const std::string& topic, const TypeInfo& type, const std::string& publisher);
+  /// Appends a message to a connection from Connection(): no lookup, and no allocation once the buffers have
+  /// grown.
+  void Write(uint32_t connection, int64_t record_time_ns, const uint8_t* data, size_t size);
   void Write(const std::string& topic, const TypeInfo& type, int64_t record_time_ns, const uint8_t* data,
              size_t size, const std::string& publisher);
-  /// Writes the index; the file is complete and readable afterwards. Idempotent.
+  /// Writes the last chunk and the index; the file is complete and readable afterwards. Idempotent.
   void Close();
   const std::string& path() const;
+  const BagWriterStats& stats() const;
 
  private:
   struct Impl;

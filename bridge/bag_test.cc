@@ -3,17 +3,71 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <gtest/gtest.h>
 #include <iapsim_msgs/IapState.h>
+#include <rosbag/bag.h>
 #include <rosgraph_msgs/Clock.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <array>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <set>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
+
+namespace iapsim::bridge {
+namespace {
+
+// One serialized message of a type known only at run time: how the tests hand raw bytes to rosbag_storage's
+// writer, the reference that BagWriter's bytes are compared with.
+struct RawPayload {
+  const TypeInfo* type;
+  const uint8_t* data;
+  uint32_t size;
+};
+
+}  // namespace
+}  // namespace iapsim::bridge
+
+namespace ros {
+namespace message_traits {
+
+template <>
+struct MD5Sum<iapsim::bridge::RawPayload> {
+  static const char* value(const iapsim::bridge::RawPayload& m) { return m.type->md5.c_str(); }
+};
+
+template <>
+struct DataType<iapsim::bridge::RawPayload> {
+  static const char* value(const iapsim::bridge::RawPayload& m) { return m.type->datatype.c_str(); }
+};
+
+template <>
+struct Definition<iapsim::bridge::RawPayload> {
+  static const char* value(const iapsim::bridge::RawPayload& m) { return m.type->definition.c_str(); }
+};
+
+}  // namespace message_traits
+
+namespace serialization {
+
+template <>
+struct Serializer<iapsim::bridge::RawPayload> {
+  template <typename Stream>
+  static void write(Stream& stream, const iapsim::bridge::RawPayload& m) {
+    if (m.size > 0) std::memcpy(stream.advance(m.size), m.data, m.size);
+  }
+  static uint32_t serializedLength(const iapsim::bridge::RawPayload& m) { return m.size; }
+};
+
+}  // namespace serialization
+}  // namespace ros
 
 namespace iapsim::bridge {
 namespace {
@@ -85,8 +139,9 @@ struct Record {
   std::string publisher;
 };
 
-void WriteAll(const std::string& path, const std::vector<Record>& records) {
-  BagWriter writer(path);
+void WriteAll(const std::string& path, const std::vector<Record>& records,
+              const BagWriterOptions& options = {}) {
+  BagWriter writer(path, options);
   for (const Record& r : records) {
     writer.Write(r.topic, *r.type, r.time_ns, r.bytes.data(), r.bytes.size(), r.publisher);
   }
@@ -349,10 +404,19 @@ bool RunCommand(const std::string& command, std::string* output) {
   return ::pclose(pipe) == 0;
 }
 
+bool HavePythonRosbag() { return std::system("/usr/bin/python3 -c 'import rosbag' >/dev/null 2>&1") == 0; }
+
+// runs `script` with Debian's python (the one with python3-rosbag), the arguments quoted
+bool RunPython(const std::string& script, const std::vector<std::string>& args, std::string* output) {
+  const std::string path = TempPath("script.py");
+  std::ofstream(path) << script;
+  std::string command = "/usr/bin/python3 '" + path + "'";
+  for (const std::string& arg : args) command += " '" + arg + "'";
+  return RunCommand(command + " 2>&1", output);
+}
+
 TEST(BagPython, DebianRosbagReadsTheBag) {
-  if (std::system("/usr/bin/python3 -c 'import rosbag' >/dev/null 2>&1") != 0) {
-    GTEST_SKIP() << "/usr/bin/python3 cannot import rosbag";
-  }
+  if (!HavePythonRosbag()) GTEST_SKIP() << "/usr/bin/python3 cannot import rosbag";
   const std::string path = TempPath("python.bag");
   WriteAll(path, MixedRecords());
   // messages are rebuilt from the stored definitions, so this also checks type, md5 and payload
@@ -360,13 +424,294 @@ TEST(BagPython, DebianRosbagReadsTheBag) {
       "import sys, rosbag\n"
       "bag = rosbag.Bag(sys.argv[1])\n"
       "info = bag.get_type_and_topic_info().topics\n"
-      "steps = [m.step for _, m, _ in bag.read_messages(topics=[\"/iap/state\"])]\n"
-      "poses = [m.pose.position.x for _, m, _ in bag.read_messages(topics=[\"/uav1/pose\"])]\n"
+      "steps = [m.step for _, m, _ in bag.read_messages(topics=['/iap/state'])]\n"
+      "poses = [m.pose.position.x for _, m, _ in bag.read_messages(topics=['/uav1/pose'])]\n"
       "n = sum(1 for _ in bag.read_messages())\n"
-      "print(n, bag.get_message_count(), info[\"/iap/state\"].msg_type, steps, poses)\n";
+      "print(n, bag.get_message_count(), info['/iap/state'].msg_type, steps, poses)\n";
   std::string output;
-  ASSERT_TRUE(RunCommand("/usr/bin/python3 -c '" + script + "' '" + path + "' 2>&1", &output)) << output;
+  ASSERT_TRUE(RunPython(script, {path}, &output)) << output;
   EXPECT_EQ(output, "7 7 iapsim_msgs/IapState [1, 2, 3] [0.5, -0.25]\n");
+}
+
+// Many connections over many chunks: three publishers on seven topics (one topic from two of them),
+// messages from 13 bytes to 12 KiB, several at each record time, one written out of time order.
+std::vector<Record> ManyRecords() {
+  const TypeInfo& state = TypeInfoOf<iapsim_msgs::IapState>();
+  const TypeInfo& pose = TypeInfoOf<geometry_msgs::PoseStamped>();
+  const TypeInfo& clock = TypeInfoOf<rosgraph_msgs::Clock>();
+  std::vector<Record> records;
+  for (int step = 0; step < 400; ++step) {
+    const int64_t t_ns = step * 1000000LL;
+    records.push_back({"/clock", &clock, t_ns, Encode(MakeClock(t_ns)), "/physics"});
+    iapsim_msgs::IapState s = MakeState(static_cast<uint64_t>(step));
+    s.bodies.resize(static_cast<size_t>(1 + step % 40));
+    records.push_back({"/iap/state", &state, t_ns, Encode(s), "/physics"});
+    if (step % 5 == 0) records.push_back({"/iap/pose_cmd", &pose, t_ns, Encode(MakePose(step)), "/control"});
+    if (step % 7 == 0) records.push_back({"/iap/pose_cmd", &pose, t_ns, Encode(MakePose(-step)), "/pilot"});
+    if (step % 3 == 0) {
+      records.push_back(
+          {"/sub" + std::to_string(step % 4) + "/pose", &pose, t_ns, Encode(MakePose(0.5 * step)), "/vio"});
+    }
+  }
+  records.push_back({"/clock", &clock, 150000000, Encode(MakeClock(1)), "/physics"});
+  return records;
+}
+
+std::string Hex(const std::string& bytes) {
+  static const char kDigits[] = "0123456789abcdef";
+  std::string hex;
+  for (const unsigned char c : bytes) hex += {kDigits[c >> 4], kDigits[c & 15]};
+  return hex;
+}
+
+std::string Hex(const std::vector<uint8_t>& bytes) { return Hex(std::string(bytes.begin(), bytes.end())); }
+
+// One line per message (topic, type, md5, record time, bytes), sorted: what any reader must give back.
+std::vector<std::string> MessageLines(const std::vector<Record>& records) {
+  std::vector<std::string> lines;
+  for (const Record& r : records) {
+    lines.push_back(r.topic + " " + r.type->datatype + " " + r.type->md5 + " " +
+                    std::to_string(std::max<int64_t>(1, r.time_ns)) + " " + Hex(r.bytes));
+  }
+  std::sort(lines.begin(), lines.end());
+  return lines;
+}
+
+std::vector<std::string> MessageLines(const BagReader& reader) {
+  std::vector<std::string> lines;
+  reader.ForEach({}, [&](const BagMessage& m) {
+    lines.push_back(m.topic + " " + m.type.datatype + " " + m.type.md5 + " " +
+                    std::to_string(m.record_time_ns) + " " + Hex(m.bytes));
+    return true;
+  });
+  std::sort(lines.begin(), lines.end());
+  return lines;
+}
+
+// equal line lists, or the first difference (the lists are long: gtest would print all of both)
+void ExpectSameLines(const std::vector<std::string>& actual, const std::vector<std::string>& expected) {
+  EXPECT_EQ(actual.size(), expected.size());
+  const auto differ = std::mismatch(actual.begin(), actual.end(), expected.begin(), expected.end());
+  if (differ.first != actual.end() || differ.second != expected.end()) {
+    ADD_FAILURE() << "first difference at line " << differ.first - actual.begin() << ":\n  read:     "
+                  << (differ.first != actual.end() ? differ.first->substr(0, 300) : "(end)")
+                  << "\n  expected: "
+                  << (differ.second != expected.end() ? differ.second->substr(0, 300) : "(end)");
+  }
+}
+
+std::vector<std::string> SplitLines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+// writes `records` through librosbag_storage's writer, the reference for the format
+void WriteWithRosbag(const std::string& path, const std::vector<Record>& records,
+                     const BagWriterOptions& options) {
+  rosbag::Bag bag(path, rosbag::bagmode::Write);
+  bag.setChunkThreshold(static_cast<uint32_t>(options.chunk_threshold_bytes));
+  bag.setCompression(options.compression == BagCompression::kLz4 ? rosbag::compression::LZ4
+                                                                 : rosbag::compression::Uncompressed);
+  for (const Record& r : records) {
+    // the connection header a ROS subscriber would receive; rosbag finds the connection by its contents
+    auto header = boost::make_shared<ros::M_string>();
+    (*header)["callerid"] = r.publisher;
+    (*header)["topic"] = r.topic;
+    (*header)["type"] = r.type->datatype;
+    (*header)["md5sum"] = r.type->md5;
+    (*header)["message_definition"] = r.type->definition;
+    ros::Time time;
+    time.fromNSec(static_cast<uint64_t>(std::max<int64_t>(1, r.time_ns)));
+    bag.write(r.topic, time, RawPayload{r.type, r.bytes.data(), static_cast<uint32_t>(r.bytes.size())},
+              header);
+  }
+  bag.close();
+}
+
+struct Variant {
+  const char* name;
+  BagWriterOptions options;
+};
+const Variant kVariants[] = {{"none", {BagCompression::kNone, 16 << 10}},
+                             {"lz4", {BagCompression::kLz4, 16 << 10}},
+                             {"none_default_chunks", {}},
+                             {"lz4_default_chunks", {BagCompression::kLz4, 768 << 10}}};
+
+TEST(BagWriterFormat, SameBytesAsLibrosbagStorage) {
+  for (const Variant& variant : kVariants) {
+    SCOPED_TRACE(variant.name);
+    for (const auto& records : {MixedRecords(), ManyRecords()}) {
+      const std::string ours = TempPath(std::string(variant.name) + "_ours.bag");
+      const std::string reference = TempPath(std::string(variant.name) + "_rosbag.bag");
+      WriteAll(ours, records, variant.options);
+      WriteWithRosbag(reference, records, variant.options);
+      const std::vector<char> a = ReadFile(ours);
+      const std::vector<char> b = ReadFile(reference);
+      ASSERT_EQ(a.size(), b.size());
+      const auto differ = std::mismatch(a.begin(), a.end(), b.begin());
+      EXPECT_TRUE(differ.first == a.end()) << "first difference at byte " << differ.first - a.begin();
+    }
+  }
+}
+
+TEST(BagWriterFormat, ManyChunksAndConnectionsReadBackExactly) {
+  const std::vector<Record> records = ManyRecords();
+  for (const Variant& variant : kVariants) {
+    SCOPED_TRACE(variant.name);
+    const std::string path = TempPath(std::string(variant.name) + ".bag");
+    BagWriter writer(path, variant.options);
+    for (const Record& r : records) {
+      writer.Write(writer.Connection(r.topic, *r.type, r.publisher), r.time_ns, r.bytes.data(),
+                   r.bytes.size());
+    }
+    writer.Close();
+    const BagWriterStats& stats = writer.stats();
+    EXPECT_EQ(stats.messages, records.size());
+    EXPECT_EQ(stats.file_bytes, ReadFile(path).size());
+    if (variant.options.chunk_threshold_bytes == 16 << 10) {
+      EXPECT_GT(stats.chunks, 20u);
+    }
+    if (variant.options.compression == BagCompression::kLz4) {
+      EXPECT_LT(stats.chunk_data_bytes, stats.record_bytes);
+    }
+
+    const BagReader reader(path);
+    std::map<std::string, uint64_t> counts;
+    for (const Record& r : records) ++counts[r.topic];
+    const std::vector<BagTopicInfo> topics = reader.Topics();
+    ASSERT_EQ(topics.size(), counts.size());
+    for (const BagTopicInfo& topic : topics) {
+      EXPECT_EQ(topic.count, counts[topic.topic]) << topic.topic;
+      const TypeInfo& type = topic.topic == "/clock"       ? TypeInfoOf<rosgraph_msgs::Clock>()
+                             : topic.topic == "/iap/state" ? TypeInfoOf<iapsim_msgs::IapState>()
+                                                           : TypeInfoOf<geometry_msgs::PoseStamped>();
+      EXPECT_EQ(topic.datatype, type.datatype) << topic.topic;
+      EXPECT_EQ(topic.md5, type.md5) << topic.topic;
+      EXPECT_EQ(topic.definition, type.definition) << topic.topic;
+    }
+    ExpectSameLines(MessageLines(reader), MessageLines(records));
+  }
+}
+
+// what python rosbag reads: one line per message and per connection (its publisher and definition)
+constexpr char kPythonDump[] =
+    "import sys, rosbag\n"
+    "bag = rosbag.Bag(sys.argv[1])\n"
+    "lines = []\n"
+    "for topic, (datatype, data, md5, _, _), t in bag.read_messages(raw=True):\n"
+    "    lines.append('%s %s %s %d %s' % (topic, datatype, md5, t.to_nsec(), data.hex()))\n"
+    "for c in bag._get_connections():\n"
+    "    publisher = c.header['callerid'].decode()\n"
+    "    definition = c.msg_def.encode().hex()\n"
+    "    lines.append(' '.join(['connection', c.topic, publisher, c.datatype, c.md5sum, definition]))\n"
+    "print('\\n'.join(sorted(lines)))\n";
+
+TEST(BagPython, DebianRosbagReadsEveryChunkAndConnection) {
+  if (!HavePythonRosbag()) GTEST_SKIP() << "/usr/bin/python3 cannot import rosbag";
+  const std::vector<Record> records = ManyRecords();
+  std::vector<std::string> expected = MessageLines(records);
+  std::set<std::string> connections;
+  for (const Record& r : records) {
+    connections.insert("connection " + r.topic + " " + r.publisher + " " + r.type->datatype + " " +
+                       r.type->md5 + " " + Hex(r.type->definition));
+  }
+  expected.insert(expected.end(), connections.begin(), connections.end());
+  std::sort(expected.begin(), expected.end());
+  for (const Variant& variant : kVariants) {
+    SCOPED_TRACE(variant.name);
+    const std::string path = TempPath(std::string(variant.name) + ".bag");
+    WriteAll(path, records, variant.options);
+    std::string output;
+    ASSERT_TRUE(RunPython(kPythonDump, {path}, &output)) << output.substr(0, 2000);
+    ExpectSameLines(SplitLines(output), expected);
+  }
+}
+
+// Reindexes a copy of a bag whose writer never closed it, and another copy cut in the middle of its last
+// chunk, with python rosbag (as `rosbag reindex` does). Prints: messages recovered, chunks, messages
+// recovered from the cut copy, messages of the last chunk.
+constexpr char kPythonReindex[] =
+    "import shutil, sys, rosbag\n"
+    "def reindex(path):\n"
+    "    bag = rosbag.Bag(path, 'a', allow_unindexed=True)\n"
+    "    for _ in bag.reindex():\n"
+    "        pass\n"
+    "    bag.close()\n"
+    "    bag = rosbag.Bag(path)\n"
+    "    chunks = [(c.pos, sum(c.connection_counts.values())) for c in bag._chunks]\n"
+    "    return bag.get_message_count(), chunks\n"
+    "killed, cut = sys.argv[1], sys.argv[2]\n"
+    "shutil.copyfile(killed, cut)\n"
+    "n, chunks = reindex(killed)\n"
+    "with open(cut, 'r+b') as f:\n"
+    "    f.truncate(chunks[-1][0] + 100)\n"
+    "m, _ = reindex(cut)\n"
+    "print(n, len(chunks), m, chunks[-1][1])\n";
+
+TEST(BagWriterRecovery, ReindexRecoversEveryChunkAKilledWriterWrote) {
+  if (!HavePythonRosbag()) GTEST_SKIP() << "/usr/bin/python3 cannot import rosbag";
+  const std::vector<Record> records = ManyRecords();
+  for (const Variant& variant : {kVariants[0], kVariants[1]}) {
+    SCOPED_TRACE(variant.name);
+    const std::string path = TempPath(std::string(variant.name) + "_killed.bag");
+    // a child writes until its fifth chunk is out and a little more, then dies without closing the bag
+    int report[2];
+    ASSERT_EQ(::pipe(report), 0);
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      BagWriter writer(path, variant.options);
+      uint64_t in_chunks = 0;
+      size_t after = 0;
+      for (const Record& r : records) {
+        writer.Write(r.topic, *r.type, r.time_ns, r.bytes.data(), r.bytes.size(), r.publisher);
+        if (in_chunks == 0 && writer.stats().chunks == 5) in_chunks = writer.stats().messages;
+        if (in_chunks > 0 && ++after > 3) break;
+      }
+      const uint64_t sent[2] = {in_chunks, writer.stats().chunks};
+      static_cast<void>(::write(report[1], sent, sizeof(sent)));
+      ::_exit(0);
+    }
+    ::close(report[1]);
+    uint64_t written[2] = {0, 0};
+    ASSERT_EQ(::read(report[0], written, sizeof(written)), static_cast<ssize_t>(sizeof(written)));
+    ::close(report[0]);
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    const uint64_t in_chunks = written[0];
+    ASSERT_GT(in_chunks, 0u);
+    ASSERT_EQ(written[1], 5u) << "the messages after the fifth chunk filled a sixth";
+
+    // the file says it is unindexed, as a killed recorder's does
+    EXPECT_THROW(BagReader reader(path), BagError);
+    std::string output;
+    ASSERT_TRUE(RunPython(kPythonReindex, {path, TempPath(std::string(variant.name) + "_cut.bag")}, &output))
+        << output;
+    uint64_t recovered = 0, chunks = 0, recovered_cut = 0, last_chunk = 0;
+    std::istringstream(output) >> recovered >> chunks >> recovered_cut >> last_chunk;
+    EXPECT_EQ(recovered, in_chunks) << output;
+    EXPECT_EQ(chunks, 5u) << output;
+    EXPECT_GT(last_chunk, 0u) << output;
+    EXPECT_EQ(recovered_cut, in_chunks - last_chunk) << output;
+    // what was recovered is exactly the messages of those chunks
+    const std::vector<Record> first(records.begin(),
+                                    records.begin() + static_cast<std::ptrdiff_t>(in_chunks));
+    ExpectSameLines(MessageLines(BagReader(path)), MessageLines(first));
+  }
+}
+
+TEST(BagWriter, RejectsTimesABagCannotHoldAndUnknownConnections) {
+  BagWriter writer(TempPath("limits.bag"));
+  const auto bytes = Encode(MakeClock(7));
+  const uint32_t clock = writer.Connection("/clock", TypeInfoOf<rosgraph_msgs::Clock>(), "/sim");
+  writer.Write(clock, 4294967295LL * 1000000000 + 999999999, bytes.data(), bytes.size());  // ros::TIME_MAX
+  EXPECT_THROW(writer.Write(clock, 4294967296LL * 1000000000, bytes.data(), bytes.size()), BagError);
+  EXPECT_THROW(writer.Write(clock + 1, 7, bytes.data(), bytes.size()), BagError);
+  EXPECT_THROW(writer.Write(clock, 7, nullptr, 3), BagError);
+  EXPECT_EQ(writer.Connection("/clock", TypeInfoOf<rosgraph_msgs::Clock>(), "/sim"), clock);
+  EXPECT_NE(writer.Connection("/clock", TypeInfoOf<rosgraph_msgs::Clock>(), "/other"), clock);
 }
 
 }  // namespace

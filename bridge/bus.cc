@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstring>
 #include <thread>
+#include <unordered_map>
 #include <zmq.hpp>
 
 #include "bridge/internal/shm_transport.h"
@@ -84,8 +85,16 @@ struct Bus::Impl {
   std::vector<pollfd> poll_fds;
   std::vector<zmq::pollitem_t> poll_items;
   std::vector<Subscription> subscriptions;
-  std::map<std::string, uint64_t> next_sequence;                 // per topic, at this publisher
-  std::map<std::pair<std::string, std::string>, uint64_t> seen;  // (publisher, topic) -> next expected
+  // what a message costs to count is one hash lookup: per topic published, its next sequence number and its
+  // counters; per (publisher '\0' topic) received, the sequence expected next and the topic's counters
+  struct Sequence {
+    uint64_t next = 0;
+    TopicCounters* counters = nullptr;  // a node of BusStats::topics: its address never changes
+    uint32_t stream = 0;                // received: MessageInfo::stream
+  };
+  std::unordered_map<std::string, Sequence> published;
+  std::unordered_map<std::string, Sequence> received;
+  std::string received_key;  // its storage reused from message to message
   std::set<std::string> hello_from, confirm_from;
   bool confirm_subscribed = false;
   int spins_since_drain = 0;
@@ -184,13 +193,19 @@ struct Bus::Impl {
       return false;
     }
 
-    auto& counters = stats.topics[topic];
-    ++counters.received;
-    auto [it, inserted] = seen.try_emplace({meta.publisher, topic}, meta.sequence);
-    if (meta.sequence > it->second) counters.lost += meta.sequence - it->second;
-    it->second = meta.sequence + 1;
+    received_key.assign(meta.publisher).append(1, '\0').append(topic);
+    auto found = received.find(received_key);
+    if (found == received.end()) {
+      const auto stream = static_cast<uint32_t>(received.size());
+      found = received.emplace(received_key, Sequence{meta.sequence, &stats.topics[topic], stream}).first;
+    }
+    Sequence& expected = found->second;
+    ++expected.counters->received;
+    if (meta.sequence > expected.next) expected.counters->lost += meta.sequence - expected.next;
+    expected.next = meta.sequence + 1;
 
-    const MessageInfo info{topic, meta.datatype, meta.md5, meta.publisher, meta.sequence, meta.sent_unix_ns};
+    const MessageInfo info{topic,         meta.datatype,     meta.md5,       meta.publisher,
+                           meta.sequence, meta.sent_unix_ns, expected.stream};
     for (const auto& sub : subscriptions) {
       const bool match = sub.exact ? sub.topic == topic : topic.compare(0, sub.topic.size(), sub.topic) == 0;
       if (!match) continue;
@@ -292,8 +307,11 @@ std::string Bus::bound_endpoint() const {
 
 void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8_t* data, size_t size) {
   auto& impl = *impl_;
-  auto& counters = stats_.topics[topic];
-  uint64_t& sequence = impl.next_sequence[topic];
+  auto found = impl.published.find(topic);
+  if (found == impl.published.end())
+    found = impl.published.emplace(topic, Impl::Sequence{0, &stats_.topics[topic]}).first;
+  auto& counters = *found->second.counters;
+  uint64_t& sequence = found->second.next;
 
   std::string& meta = impl.meta_buffer;
   meta.clear();
@@ -385,13 +403,16 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
       std::this_thread::yield();
     }
   }
-  const auto left =
+  auto left =
       std::max(std::chrono::microseconds(0),
                timeout - std::chrono::duration_cast<std::chrono::microseconds>(SteadyClock::now() - start));
+  const bool announce = impl.options.poll_period.count() == 0;
+  if (!announce) left = std::min(left, impl.options.poll_period);
   auto& fds = impl.poll_fds;
   fds.clear();
-  if (!impl.shm_subscriber || impl.shm_subscriber->PrepareSleep(&fds)) {
+  if (!impl.shm_subscriber || impl.shm_subscriber->PrepareSleep(&fds, announce)) {
     if (impl.shm_publisher) fds.push_back({impl.shm_publisher->listen_fd(), POLLIN, 0});
+    bool event = true;  // ZeroMQ's poll does not say which descriptor woke it
     if (impl.zmq_peers) {
       auto& items = impl.poll_items;
       items.assign(1, zmq::pollitem_t{impl.subscriber.handle(), 0, ZMQ_POLLIN, 0});
@@ -403,10 +424,12 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
       }
     } else {
       const timespec wait{static_cast<time_t>(left.count() / 1000000), static_cast<long>(left.count() % 1000000) * 1000};
-      ppoll(fds.data(), fds.size(), &wait, nullptr);
+      event = ppoll(fds.data(), fds.size(), &wait, nullptr) != 0;
     }
-    if (impl.shm_subscriber) impl.shm_subscriber->WakeUp();
-    impl.Maintain(/*now=*/true);
+    if (impl.shm_subscriber && announce) impl.shm_subscriber->WakeUp();
+    // a socket's news (a subscriber, a bigger queue, a hang-up) is taken at once; after a timeout, as
+    // often as ever (a polling subscriber wakes a thousand times a second)
+    impl.Maintain(/*now=*/event);
   }
   return impl.DrainQueued(stats_, max_batch);
 }
@@ -422,8 +445,11 @@ void Bus::PublishHello() {
   hello.node = impl_->options.node_name;
   Publish(kHelloTopic, hello);
   Publish(kConfirmTopic, hello);
-  stats_.topics.erase(kHelloTopic);
-  stats_.topics.erase(kConfirmTopic);
+  // handshake traffic is not counted (nor numbered: receivers handle it before they look at sequences)
+  for (const char* topic : {kHelloTopic, kConfirmTopic}) {
+    stats_.topics.erase(topic);
+    impl_->published.erase(topic);
+  }
 }
 
 bool Bus::HandshakeComplete(const std::vector<std::string>& peers) {
@@ -444,8 +470,6 @@ bool Bus::HandshakeComplete(const std::vector<std::string>& peers) {
 void Bus::EndHandshake() {
   impl_->Unsubscribe(std::string(kHelloTopic) + '\0');
   if (impl_->confirm_subscribed) impl_->Unsubscribe(std::string(kConfirmTopic) + '\0');
-  impl_->next_sequence.erase(kHelloTopic);
-  impl_->next_sequence.erase(kConfirmTopic);
 }
 
 }  // namespace iapsim::bridge

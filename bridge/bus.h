@@ -54,6 +54,10 @@ struct BusOptions {
   DropPolicy drop_policy = DropPolicy::kBlock;
   std::chrono::milliseconds block_timeout{2000};
   std::chrono::microseconds spin{50};         // shm peers: Spin polls the queues this long, then sleeps
+  // shm peers, 0: a sleeping subscriber is woken by its publishers when data arrives (a system call on their
+  // side); > 0: it sleeps this long at most and then looks at its queues, and publishers never wake it (for
+  // a subscriber that may lag, such as the recorder, so as to cost its publishers nothing)
+  std::chrono::microseconds poll_period{0};
   size_t shm_initial_queue_bytes = 64 << 10;  // per subscriber of an shm:// publisher
   size_t shm_max_queue_bytes = 64 << 20;      // a larger message is an error
 };
@@ -78,6 +82,9 @@ struct MessageInfo {
   const std::string& publisher;
   uint64_t sequence;     // per topic and publisher, starting at 0
   int64_t sent_unix_ns;  // the publisher's wall clock (UnixTimeNs) when it sent the message
+  /// Numbers the (publisher, topic) pairs this bus has received from 0 up, in order of first message: a
+  /// subscriber keeps per-stream state in a vector instead of looking the two names up.
+  uint32_t stream;
 };
 
 /// Wall-clock time (CLOCK_REALTIME, ns since the Unix epoch): comparable between processes, and between

@@ -96,6 +96,23 @@ TEST_P(BusOn, ExactTopicDoesNotMatchLongerTopic) {
   EXPECT_EQ(prefixed, 2);
 }
 
+TEST_P(BusOn, NumbersEachPublisherAndTopicPairInOrderOfFirstMessage) {
+  Bus a(Options("a", {"b"}));
+  Bus b(Options("b", {"a"}));
+  std::vector<std::pair<std::string, uint32_t>> seen;
+  b.SubscribeRaw("/", [&](const uint8_t*, size_t, const MessageInfo& info) {
+    seen.emplace_back(info.topic, info.stream);
+  });
+  Handshake(a, b);
+  std_msgs::String text;
+  for (const char* topic : {"/x", "/y", "/x", "/z", "/y"}) a.Publish(topic, text);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (seen.size() < 5 && std::chrono::steady_clock::now() < deadline) b.Spin(milliseconds(10));
+  const std::vector<std::pair<std::string, uint32_t>> expected = {
+      {"/x", 0}, {"/y", 1}, {"/x", 0}, {"/z", 2}, {"/y", 1}};
+  EXPECT_EQ(seen, expected);
+}
+
 TEST_P(BusOn, RefusesTypeMismatchWithAClearError) {
   Bus a(Options("physics", {"control"}));
   Bus b(Options("control", {"physics"}));

@@ -108,7 +108,9 @@ struct Child {
   Clock::time_point last_heartbeat;
   int64_t sim_ns = 0;
   nlohmann::json report;
-  double cpu_s = 0.0;  // user + system time of the process (and any children it waited for), once reaped
+  // its whole life's CPU time, once reaped (a process that crashed has no report of its own)
+  double cpu_user_s = 0.0;
+  double cpu_system_s = 0.0;
 };
 
 pid_t Spawn(std::vector<std::string> args, const std::string& log_path) {
@@ -231,8 +233,8 @@ class Supervisor {
       if (wait4(child.pid, &status, WNOHANG, &usage) != child.pid) continue;
       child.exited = true;
       child.status = status;
-      child.cpu_s = static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-                    static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec) * 1e-6;
+      child.cpu_user_s = static_cast<double>(usage.ru_utime.tv_sec) + 1e-6 * static_cast<double>(usage.ru_utime.tv_usec);
+      child.cpu_system_s = static_cast<double>(usage.ru_stime.tv_sec) + 1e-6 * static_cast<double>(usage.ru_stime.tv_usec);
       const bool clean = WIFEXITED(status) && WEXITSTATUS(status) == 0;
       if (!stopping_ || (!clean && !completed_ && failure_.empty())) {
         Fail("process '" + child.name + "' (pid " + std::to_string(child.pid) + ") " + DescribeExit(status) +
@@ -478,7 +480,7 @@ LaunchResult Launch(const LaunchOptions& options) {
   for (const auto& child : supervisor.children()) {
     nlohmann::json entry = child.report.is_object() ? child.report : nlohmann::json::object();
     entry["exit"] = DescribeExit(child.status);
-    entry["cpu_s"] = child.cpu_s;
+    entry["cpu_s"] = {{"user", child.cpu_user_s}, {"system", child.cpu_system_s}};
     if (child.name == scenario.clock_owner && entry.contains("sim_time_s")) {
       metrics["sim_time_s"] = entry["sim_time_s"];
       metrics["real_time_factor"] = entry["sim_time_s"].get<double>() / std::max(1e-9, supervisor.wall_s());
@@ -488,7 +490,8 @@ LaunchResult Launch(const LaunchOptions& options) {
   // what each process costs per simulated second: where a run's time goes
   if (metrics.contains("sim_time_s") && metrics["sim_time_s"].get<double>() > 0.0) {
     for (auto& [name, entry] : metrics["processes"].items()) {
-      entry["cpu_s_per_sim_s"] = entry["cpu_s"].get<double>() / metrics["sim_time_s"].get<double>();
+      entry["cpu_s_per_sim_s"] = (entry["cpu_s"]["user"].get<double>() + entry["cpu_s"]["system"].get<double>()) /
+                                 metrics["sim_time_s"].get<double>();
     }
   }
   std::ofstream(result.run_dir + "/metrics.json") << metrics.dump(2) << "\n";

@@ -4,6 +4,7 @@
 #include <iapsim_msgs/Tick.h>
 #include <rosgraph_msgs/Clock.h>
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -26,6 +27,7 @@ constexpr char kTickTopic[] = "/iapsim/tick";
 constexpr char kAckTopic[] = "/iapsim/ack";
 constexpr auto kHeartbeatPeriod = milliseconds(100);
 constexpr auto kControlPollPeriod = milliseconds(5);
+constexpr auto kLaggingPollPeriod = std::chrono::microseconds(1000);
 
 // signals are process-wide by nature; the handler only records which one arrived
 std::atomic<int> received_signal{0};
@@ -100,6 +102,12 @@ class Runtime {
     // realtime: the wall clock paces the run, so waiting processes sleep at once and leave the CPU to work
     options.spin = std::chrono::microseconds(scenario.mode == ClockMode::kRealtime ? 0 : scenario.bus.spin_us);
     options.shm_max_queue_bytes = static_cast<size_t>(scenario.bus.shm_queue_max_mib) << 20;
+    // a process that may lag (the recorder) reads its queues every millisecond, in batches, and is never
+    // woken: it neither spins on a core that physics and control need nor costs its publishers a wake-up
+    if (self.max_lag_steps > 0 && scenario.mode != ClockMode::kRealtime) {
+      options.spin = std::chrono::microseconds(0);
+      options.poll_period = kLaggingPollPeriod;
+    }
     // lockstep never lets queues fill; elsewhere a slow subscriber must not stall the clock
     options.drop_policy =
         scenario.mode == ClockMode::kLockstep ? DropPolicy::kBlock : DropPolicy::kDropNewest;
@@ -160,6 +168,7 @@ class Runtime {
     const auto wall_start = Clock::now();
     const auto ack_timeout = std::chrono::duration<double>(scenario_.clock.ack_timeout_s);
     late_acks_.assign(schedule_.members().size(), 0);
+    lags_.assign(schedule_.members().size(), LagStats{});
     iapsim_msgs::Tick tick;
     rosgraph_msgs::Clock clock;
     for (uint64_t k = 0; k <= last; ++k) {
@@ -188,9 +197,16 @@ class Runtime {
         CountLateAcks(k);
         continue;
       }
+      MeasureLags(k);
       const auto deadline = Clock::now() + ack_timeout;
       int missing;
+      bool held_by_lagging = false;
       while ((missing = FirstMissingAck(k)) >= 0) {
+        // a process that may lag held the clock: it was max_lag_steps behind
+        if (!held_by_lagging && schedule_.members()[missing].lag_steps > 0) {
+          ++lags_[missing].waits;
+          held_by_lagging = true;
+        }
         bus_.Spin(milliseconds(1));
         if (StopRequested()) return;
         if (Clock::now() > deadline) {
@@ -206,21 +222,38 @@ class Runtime {
     while (!StopRequested(/*poll_now=*/true)) bus_.Spin(milliseconds(5));
   }
 
+  // how many steps before k a process that may lag has not acknowledged yet, now that k is published (at
+  // most its max_lag_steps): only the clock owner knows, a lagging process sees the clock's progress late
+  void MeasureLags(uint64_t k) {
+    for (size_t m = 0; m < lags_.size(); ++m) {
+      if (schedule_.members()[m].lag_steps == 0) continue;
+      const auto lag =
+          static_cast<uint64_t>(std::max<int64_t>(0, static_cast<int64_t>(k) - 1 - last_ack_[m]));
+      lags_[m].max = std::max(lags_[m].max, lag);
+      lags_[m].sum += lag;
+    }
+  }
+
   int FirstMissingAck(uint64_t k) const {
+    const bool last = k == scenario_.last_step();
     for (size_t m = 0; m < last_ack_.size(); ++m) {
       const int member = static_cast<int>(m);
-      if (schedule_.Due(member, k) && schedule_.Awaited(member, scenario_.mode) &&
-          last_ack_[m] < static_cast<int64_t>(k)) {
+      if (schedule_.Awaited(member, scenario_.mode) && last_ack_[m] < schedule_.AckNeeded(member, k, last)) {
         return member;
       }
     }
     return -1;
   }
 
-  // realtime: a due participant whose ack for k has not arrived when k's wall-clock slot ends is late
+  // realtime: a due participant whose ack for k has not arrived when k's wall-clock slot ends is late (one
+  // that may lag: when the slot of k + max_lag_steps ends)
   void CountLateAcks(uint64_t k) {
     for (size_t m = 0; m < last_ack_.size(); ++m) {
-      if (schedule_.Due(static_cast<int>(m), k) && last_ack_[m] < static_cast<int64_t>(k)) ++late_acks_[m];
+      const int member = static_cast<int>(m);
+      const uint64_t lag = schedule_.members()[m].lag_steps;
+      if (k >= lag && schedule_.Due(member, k - lag) && last_ack_[m] < static_cast<int64_t>(k - lag)) {
+        ++late_acks_[m];
+      }
     }
   }
 
@@ -247,19 +280,23 @@ class Runtime {
   }
 
   // steps every due tick whose prerequisites are met, in order (acts inside the bus callback, so in realtime
-  // the process sees the messages of step k, not those of k+1 still queued behind the tick)
+  // the process sees the messages of step k, not those of k+1 still queued behind the tick); a process that
+  // may lag acknowledges only every AckInterval steps, so the others are not flooded with its acks
   void StepWaitingTicks() {
-    while (!waiting_ticks_.empty()) {
-      const StepInfo info = waiting_ticks_.front();
-      if (!PeersAcked(info.step)) return;
-      waiting_ticks_.erase(waiting_ticks_.begin());
+    size_t stepped = 0;
+    while (stepped < waiting_ticks_.size() && PeersAcked(waiting_ticks_[stepped].step)) {
+      const StepInfo info = waiting_ticks_[stepped++];
       process_.Step(info);
-      iapsim_msgs::StepAck ack;
-      ack.step = info.step;
-      ack.node = self_.name;
-      bus_.Publish(kAckTopic, ack);
+      if (info.final || info.step >= next_ack_step_) {
+        ack_.step = info.step;
+        ack_.node = self_.name;
+        bus_.Publish(kAckTopic, ack_);
+        next_ack_step_ = info.step + schedule_.AckInterval(self_index_);
+      }
       finished_ = finished_ || info.final;
     }
+    waiting_ticks_.erase(waiting_ticks_.begin(),
+                         waiting_ticks_.begin() + static_cast<std::ptrdiff_t>(stepped));
   }
 
   bool PeersAcked(uint64_t k) const {
@@ -281,6 +318,17 @@ class Runtime {
       for (size_t m = 0; m < late_acks_.size(); ++m) late[schedule_.members()[m].name] = late_acks_[m];
       report["late_acks"] = late;
     }
+    // the clock owner's view of each process that may lag: steps behind (when a step is published), and the
+    // steps at which the clock waited for it
+    const double steps = static_cast<double>(sim_ns_ / scenario_.step_ns() + 1);
+    for (size_t m = 0; m < lags_.size(); ++m) {
+      const StepSchedule::Member& member = schedule_.members()[m];
+      if (member.lag_steps == 0) continue;
+      report["lag_steps"][member.name] = {{"max", lags_[m].max},
+                                          {"mean", static_cast<double>(lags_[m].sum) / steps},
+                                          {"limit", member.lag_steps},
+                                          {"clock_waits", lags_[m].waits}};
+    }
     spdlog::info("{} at t = {:.3f} s", finished_ ? "finished" : "stopped",
                  static_cast<double>(sim_ns_) * 1e-9);
     control_.Send("bye", report.dump());
@@ -297,7 +345,15 @@ class Runtime {
   std::vector<int64_t> last_ack_;  // per schedule member: highest step acknowledged
   std::vector<int> gating_peers_;  // schedule members whose ack of k this process waits for before step k
   std::vector<uint64_t> late_acks_;
+  struct LagStats {
+    uint64_t max = 0;
+    uint64_t sum = 0;
+    uint64_t waits = 0;  // steps at which the clock waited for it to catch up
+  };
+  std::vector<LagStats> lags_;  // per member; the clock owner's only
   std::vector<StepInfo> waiting_ticks_;
+  uint64_t next_ack_step_ = 0;  // the first step this process acknowledges after the last it did
+  iapsim_msgs::StepAck ack_;
   int64_t sim_ns_ = 0;
   bool start_received_ = false;
   bool stop_received_ = false;
@@ -315,6 +371,13 @@ struct Arguments {
 };
 
 }  // namespace
+
+CpuTime ProcessCpuTime() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * t.tv_usec; };
+  return {seconds(usage.ru_utime), seconds(usage.ru_stime)};
+}
 
 int ProcessMain(int argc, char** argv, const std::string& description, const ProcessFactory& factory) {
   Arguments args;

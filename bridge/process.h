@@ -8,7 +8,9 @@
 //   clock owner: steps to k+1 once every awaited participant acked k (cmd k arrived before ack k: same
 //   socket)
 // A process that StepsAfterPeers (the recorder) acts on k only when every other due process acked k, so it
-// has seen every message of step k.
+// has seen every message of step k. A process that may lag (the recorder, recording.max_lag_steps = L)
+// acknowledges only every L/4 steps and the last step, and the clock owner waits for its ack of k - L (not
+// k) before it publishes k + 1, and for its ack of the last step before the run ends.
 
 #include <cstdint>
 #include <functional>
@@ -48,6 +50,13 @@ class Process {
   /// The run is over (normally or not): flush outputs, add figures to the run's metrics.
   virtual void Finish(nlohmann::json* report) { (void)report; }
 };
+
+/// CPU time this process has used so far, all its threads (getrusage), in seconds.
+struct CpuTime {
+  double user_s = 0.0;
+  double system_s = 0.0;
+};
+CpuTime ProcessCpuTime();
 
 /// Builds the process from its params (reading every key it knows; unknown keys are rejected after).
 /// Must not touch the bus: it also runs for `--check`.

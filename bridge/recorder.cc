@@ -1,7 +1,8 @@
 #include "bridge/recorder.h"
 
-#include <spdlog/spdlog.h>
-
+#include <algorithm>
+#include <chrono>
+#include <cstring>
 #include <map>
 
 #include "bridge/bag.h"
@@ -10,8 +11,16 @@
 namespace iapsim::bridge {
 namespace {
 
+using Clock = std::chrono::steady_clock;
+
 constexpr char kTickTopic[] = "/iapsim/tick";
 constexpr char kAckTopic[] = "/iapsim/ack";
+// a publisher's written messages are moved out of its buffer once they are the larger part and at least this
+constexpr size_t kReclaimBytes = 1 << 20;
+// on stop, what is still queued on the bus is written too, unless reading it takes longer than this
+constexpr auto kDrainLimit = std::chrono::seconds(1);
+
+double Seconds(Clock::duration duration) { return std::chrono::duration<double>(duration).count(); }
 
 bool StartsWithAny(const std::string& topic, const std::vector<std::string>& prefixes) {
   for (const auto& p : prefixes) {
@@ -20,15 +29,77 @@ bool StartsWithAny(const std::string& topic, const std::vector<std::string>& pre
   return false;
 }
 
+// One publisher's messages not written yet, in its send order, in buffers reused from step to step, and the
+// steps its acknowledgements (or ticks) closed.
+struct Publisher {
+  struct Message {
+    uint32_t connection;  // in the bag
+    uint32_t size;
+    size_t offset;  // in bytes
+  };
+  struct Close {
+    uint64_t step;
+    uint64_t end;  // number of messages received before the acknowledgement of `step`
+  };
+  std::vector<uint8_t> bytes;
+  std::vector<Message> messages;
+  size_t next_message = 0;  // messages[next_message..] are not written yet
+  uint64_t reclaimed = 0;   // messages removed from the front of `messages` (numbering for Close::end)
+  std::vector<Close> closes;
+  size_t next_close = 0;
+
+  void Add(uint32_t connection, const uint8_t* data, size_t size) {
+    messages.push_back({connection, static_cast<uint32_t>(size), bytes.size()});
+    bytes.insert(bytes.end(), data, data + size);
+  }
+  void CloseStep(uint64_t step) { closes.push_back({step, reclaimed + messages.size()}); }
+  bool HasClosedSteps() const { return next_close < closes.size(); }
+  uint64_t NextClosedStep() const { return closes[next_close].step; }
+
+  // The end of the messages closed by steps up to `step` (an index into `messages`).
+  size_t EndOfStep(uint64_t step) {
+    uint64_t end = reclaimed + next_message;
+    while (next_close < closes.size() && closes[next_close].step <= step) end = closes[next_close++].end;
+    return static_cast<size_t>(end - reclaimed);
+  }
+
+  // Drops what was written once it outweighs the rest (so an element is moved about once at most), and the
+  // messages' bytes all at once when everything is written.
+  void Reclaim() {
+    if (next_close > closes.size() - next_close) {
+      closes.erase(closes.begin(), closes.begin() + static_cast<std::ptrdiff_t>(next_close));
+      next_close = 0;
+    }
+    if (next_message == messages.size()) {
+      reclaimed += messages.size();
+      messages.clear();
+      bytes.clear();
+      next_message = 0;
+      return;
+    }
+    const size_t written_bytes = messages[next_message].offset;
+    if (written_bytes < kReclaimBytes || written_bytes < bytes.size() - written_bytes) return;
+    bytes.erase(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(written_bytes));
+    messages.erase(messages.begin(), messages.begin() + static_cast<std::ptrdiff_t>(next_message));
+    for (Message& m : messages) m.offset -= written_bytes;
+    reclaimed += next_message;
+    next_message = 0;
+  }
+};
+
 class Recorder : public Process {
  public:
-  Recorder(const ProcessContext& context, YamlMap& params) : recording_(context.scenario.recording) {
+  Recorder(const ProcessContext& context, YamlMap& params)
+      : recording_(context.scenario.recording), step_ns_(context.scenario.step_ns()) {
     (void)params;  // the recorder is configured by the scenario's `recording` section
     if (!context.run_dir.empty()) bag_path_ = context.run_dir + "/run.bag";
   }
 
   void Setup(Bus& bus) override {
-    bag_ = std::make_unique<BagWriter>(bag_path_);
+    BagWriterOptions options;
+    options.compression = recording_.compression == "lz4" ? BagCompression::kLz4 : BagCompression::kNone;
+    bag_ = std::make_unique<BagWriter>(bag_path_, options);
+    bus_ = &bus;
     bus.SubscribeRaw("", [this](const uint8_t* data, size_t size, const MessageInfo& info) {
       OnMessage(data, size, info);
     });
@@ -37,70 +108,146 @@ class Recorder : public Process {
   bool StepsAfterPeers() const override { return true; }
 
   void Step(const StepInfo& step) override {
-    last_stamp_ns_ = step.stamp_ns;
-    for (auto& [publisher, queue] : queues_) WriteClosed(publisher, queue, step.stamp_ns);
+    const auto start = Clock::now();
+    WriteStep(step.step, step.stamp_ns);
+    step_s_ += Seconds(Clock::now() - start);
   }
 
   void Finish(nlohmann::json* report) override {
     if (!bag_) return;
-    // the run may end early (a process died): keep everything that reached us
-    for (auto& [publisher, queue] : queues_) {
-      queue.closed = queue.messages.size();
-      WriteClosed(publisher, queue, last_stamp_ns_);
+    const auto start = Clock::now();
+    // what is still on the bus was sent before the stop: read it (ticks and acks close their steps)
+    const auto drain_end = Clock::now() + kDrainLimit;
+    while (bus_->Spin(std::chrono::microseconds(0)) > 0 && Clock::now() < drain_end) {
     }
+    // the run may have ended early (a process died): write what each publisher closed, step by step, then
+    // whatever else reached us
+    while (true) {
+      bool any = false;
+      uint64_t step = 0;
+      for (const auto& [name, publisher] : publishers_) {
+        if (!publisher.HasClosedSteps()) continue;
+        step = any ? std::min(step, publisher.NextClosedStep()) : publisher.NextClosedStep();
+        any = true;
+      }
+      if (!any) break;
+      WriteStep(step, static_cast<int64_t>(step) * step_ns_);
+    }
+    for (auto& [name, publisher] : publishers_)
+      WriteMessages(publisher, publisher.messages.size(), last_stamp_ns_);
+    step_s_ += Seconds(Clock::now() - start);
     bag_->Close();
-    nlohmann::json topics = nlohmann::json::object();
-    for (const auto& [topic, count] : written_) topics[topic] = count;
-    (*report)["bag"] = bag_path_;
-    (*report)["recorded"] = topics;
+    Report(report);
   }
 
  private:
-  struct Pending {
-    std::string topic;
-    const TypeInfo* type;
-    std::vector<uint8_t> bytes;
-  };
-  struct Queue {
-    std::vector<Pending> messages;
-    size_t closed = 0;  // messages[0, closed) precede the publisher's latest ack
+  enum class Kind { kData, kTick, kAck };
+  // what the recorder does with the messages of one (publisher, topic), found by MessageInfo::stream
+  struct Stream {
+    Publisher* publisher = nullptr;  // null: not seen yet
+    Kind kind = Kind::kData;
+    int64_t connection = -1;  // in the bag; -1 when the topic is not recorded
+    std::string md5;          // a publisher that changes the topic's type gets another connection
   };
 
   void OnMessage(const uint8_t* data, size_t size, const MessageInfo& info) {
-    Queue& queue = queues_[info.publisher];
-    const bool recorded = (recording_.include.empty() || StartsWithAny(info.topic, recording_.include)) &&
-                          !StartsWithAny(info.topic, recording_.exclude);
-    if (recorded) Enqueue(queue, data, size, info);
-    // acks and ticks are sent after the data they close (same socket, same order)
-    if (info.topic == kAckTopic || info.topic == kTickTopic) queue.closed = queue.messages.size();
+    if (info.stream >= streams_.size()) streams_.resize(info.stream + 1);
+    Stream& stream = streams_[info.stream];
+    if (stream.publisher == nullptr || stream.md5 != info.md5) stream = MakeStream(info);
+    if (stream.connection >= 0) stream.publisher->Add(static_cast<uint32_t>(stream.connection), data, size);
+    // acks and ticks are sent after the data they close (same socket, same order); both messages begin
+    // with `uint64 step`, and the runtime decodes and checks them in full
+    if (stream.kind != Kind::kData) {
+      uint64_t step;
+      if (size < sizeof(step)) {
+        throw BusError("recorder: a " + info.datatype + " of " + std::to_string(size) + " bytes from '" +
+                       info.publisher + "'");
+      }
+      std::memcpy(&step, data, sizeof(step));
+      stream.publisher->CloseStep(step);
+    }
   }
 
-  void Enqueue(Queue& queue, const uint8_t* data, size_t size, const MessageInfo& info) {
+  Stream MakeStream(const MessageInfo& info) {
+    Stream stream;
+    stream.publisher = &publishers_[info.publisher];
+    stream.md5 = info.md5;
+    if (info.topic == kTickTopic) stream.kind = Kind::kTick;
+    if (info.topic == kAckTopic) stream.kind = Kind::kAck;
+    const bool recorded = (recording_.include.empty() || StartsWithAny(info.topic, recording_.include)) &&
+                          !StartsWithAny(info.topic, recording_.exclude);
+    if (!recorded) return stream;
     const RegisteredType* type = FindType(info.datatype);
     if (!type || type->info.md5 != info.md5) {
       throw BusError("recorder: topic '" + info.topic + "' from '" + info.publisher + "' has type " +
                      info.datatype + " (md5 " + info.md5 +
                      ") that is not in iapsim's message registry (bridge/message_registry.cc)");
     }
-    queue.messages.push_back(Pending{info.topic, &type->info, std::vector<uint8_t>(data, data + size)});
+    stream.connection = bag_->Connection(info.topic, type->info, info.publisher);
+    if (connection_topics_.size() <= static_cast<size_t>(stream.connection)) {
+      connection_topics_.resize(stream.connection + 1);
+      written_.resize(stream.connection + 1, 0);
+    }
+    connection_topics_[stream.connection] = info.topic;
+    return stream;
   }
 
-  void WriteClosed(const std::string& publisher, Queue& queue, int64_t stamp_ns) {
-    for (size_t i = 0; i < queue.closed; ++i) {
-      const Pending& m = queue.messages[i];
-      bag_->Write(m.topic, *m.type, stamp_ns, m.bytes.data(), m.bytes.size(), publisher);
-      ++written_[m.topic];
+  // Writes every publisher's messages closed by steps up to `step`, at `stamp_ns`, publishers in name order.
+  void WriteStep(uint64_t step, int64_t stamp_ns) {
+    last_stamp_ns_ = std::max(last_stamp_ns_, stamp_ns);
+    for (auto& [name, publisher] : publishers_) WriteMessages(publisher, publisher.EndOfStep(step), stamp_ns);
+  }
+
+  void WriteMessages(Publisher& publisher, size_t end, int64_t stamp_ns) {
+    for (; publisher.next_message < end; ++publisher.next_message) {
+      const Publisher::Message& m = publisher.messages[publisher.next_message];
+      bag_->Write(m.connection, stamp_ns, publisher.bytes.data() + m.offset, m.size);
+      ++written_[m.connection];
     }
-    queue.messages.erase(queue.messages.begin(), queue.messages.begin() + static_cast<long>(queue.closed));
-    queue.closed = 0;
+    publisher.Reclaim();
+  }
+
+  void Report(nlohmann::json* report) const {
+    std::map<std::string, uint64_t> by_topic;
+    uint64_t messages = 0;
+    for (size_t c = 0; c < written_.size(); ++c) {
+      by_topic[connection_topics_[c]] += written_[c];
+      messages += written_[c];
+    }
+    // everything but writing, measured as the process's CPU time less the time spent writing (reading the
+    // bus, copying messages): the clock is not read for every message
+    const CpuTime cpu = ProcessCpuTime();
+    const double receive_s = std::max(0.0, cpu.user_s + cpu.system_s - step_s_);
+    const BagWriterStats& stats = bag_->stats();
+    (*report)["bag"] = bag_path_;
+    (*report)["recorded"] = by_topic;
+    (*report)["messages"] = messages;
+    (*report)["bag_bytes"] = stats.file_bytes;
+    (*report)["chunks"] = stats.chunks;
+    (*report)["record_bytes"] = stats.record_bytes;
+    (*report)["compression"] = recording_.compression;
+    (*report)["compression_ratio"] =
+        stats.chunk_data_bytes > 0 ? static_cast<double>(stats.record_bytes) / stats.chunk_data_bytes : 1.0;
+    (*report)["write_calls"] = stats.write_calls;
+    // where the recorder's time went: copying messages off the bus, building bag records, compressing, and
+    // the write system calls
+    (*report)["time_s"] = {{"receive", receive_s},
+                           {"records", std::max(0.0, step_s_ - stats.compress_s - stats.write_s)},
+                           {"compress", stats.compress_s},
+                           {"write", stats.write_s}};
   }
 
   RecordingConfig recording_;
+  int64_t step_ns_;
   std::string bag_path_;
   std::unique_ptr<BagWriter> bag_;
-  std::map<std::string, Queue> queues_;  // by publisher name: std::map gives the canonical order
-  std::map<std::string, uint64_t> written_;
+  Bus* bus_ = nullptr;
+  std::map<std::string, Publisher> publishers_;  // by name: std::map gives the canonical order
+  std::vector<Stream> streams_;                  // by MessageInfo::stream
+  std::vector<std::string> connection_topics_;   // by bag connection
+  std::vector<uint64_t> written_;                // by bag connection
   int64_t last_stamp_ns_ = 0;
+  double step_s_ = 0.0;  // writing to the bag, compression and system calls included
 };
 
 }  // namespace

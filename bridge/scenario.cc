@@ -1,5 +1,6 @@
 #include "bridge/scenario.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -153,6 +154,8 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
   recording.Optional("enabled", &s.recording.enabled);
   ReadTopicList(recording, "include", &s.recording.include);
   ReadTopicList(recording, "exclude", &s.recording.exclude);
+  recording.OptionalChoice("compression", &s.recording.compression, {"none", "lz4"});
+  recording.OptionalInRange("max_lag_steps", &s.recording.max_lag_steps, uint64_t{0}, uint64_t{1000000});
   recording.Finish();
 
   // what `iapsim run` computes from the recording afterwards; tools/ validates it
@@ -226,6 +229,7 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
     recorder.name = kRecorderName;
     recorder.exec = "iapsim_recorder";
     recorder.role = ProcessRole::kObserver;
+    recorder.max_lag_steps = s.recording.max_lag_steps;
     recorder.params = YAML::Node(YAML::NodeType::Map);
     s.processes.push_back(recorder);
   }
@@ -258,7 +262,7 @@ StepSchedule::StepSchedule(const Scenario& scenario) {
   for (const auto& p : scenario.processes) {
     if (p.role == ProcessRole::kClock) continue;
     const uint64_t period = p.rate_hz > 0 ? StepsPerPeriod(p.rate_hz, scenario.clock.step_s) : 1;
-    members_.push_back(Member{p.name, p.role, period});
+    members_.push_back(Member{p.name, p.role, period, p.max_lag_steps});
   }
 }
 
@@ -267,6 +271,18 @@ int StepSchedule::IndexOf(const std::string& name) const {
     if (members_[i].name == name) return static_cast<int>(i);
   }
   return -1;
+}
+
+int64_t StepSchedule::AckNeeded(int member, uint64_t k, bool last) const {
+  const Member& m = members_[member];
+  if (!last && k < m.lag_steps) return -1;
+  const uint64_t step = last ? k : k - m.lag_steps;
+  return static_cast<int64_t>(step - step % m.period_steps);
+}
+
+uint64_t StepSchedule::AckInterval(int member) const {
+  const Member& m = members_[member];
+  return std::max(m.period_steps, m.lag_steps / 4);
 }
 
 bool StepSchedule::Awaited(int member, ClockMode mode) const {

@@ -46,6 +46,11 @@ struct RecordingConfig {
   bool enabled = true;
   std::vector<std::string> include;              // topic prefixes; empty: every topic
   std::vector<std::string> exclude{"/iapsim/"};  // protocol topics are not recorded by default
+  std::string compression = "none";              // of the bag's chunks: none | lz4
+  // lockstep: how many steps the clock may run ahead of the recorder (0: it waits for the recorder every
+  // step); bounds what the recorder holds in memory and in its bus queues. 500 at 1 kHz: the stereo
+  // scenario's seven 210 KiB images at 20 Hz are 10 frames, 15 MiB in the render process's queue (of 64)
+  uint64_t max_lag_steps = 500;
 };
 
 struct ProcessConfig {
@@ -58,6 +63,9 @@ struct ProcessConfig {
   // lockstep and fast: acts on step k only after these processes acknowledged k, so it reads their step-k
   // outputs (a controller fed by the sensors' filtered wrench); no cycles
   std::vector<std::string> after;
+  // the clock may run this many steps ahead of the process's acknowledgements, which it sends every
+  // max_lag_steps / 4 steps (and at the last step); only the recorder lags (recording.max_lag_steps)
+  uint64_t max_lag_steps = 0;
   YAML::Node params;  // validated by the process itself (`EXEC --check`)
   int line = 0;       // line of the process's entry in the scenario file, for messages
 };
@@ -100,6 +108,7 @@ class StepSchedule {
     std::string name;
     ProcessRole role;
     uint64_t period_steps;  // due when k % period_steps == 0
+    uint64_t lag_steps;     // ProcessConfig::max_lag_steps
   };
   /// Every process except the clock owner, in scenario order.
   const std::vector<Member>& members() const { return members_; }
@@ -107,6 +116,12 @@ class StepSchedule {
   bool Due(int member, uint64_t step) const { return step % members_[member].period_steps == 0; }
   /// Whether the clock owner waits for this member's acknowledgement in `mode`.
   bool Awaited(int member, ClockMode mode) const;
+  /// The step the member's acknowledgements must have reached before the clock owner goes on from step k
+  /// (publishes k + 1, or at the `last` step ends the run): the member's latest due step up to k, or up to
+  /// k - lag_steps for a member that may lag, except at the last step; -1 when there is none yet.
+  int64_t AckNeeded(int member, uint64_t k, bool last) const;
+  /// How many steps apart a member sends its acknowledgements: every due step, or every lag_steps / 4.
+  uint64_t AckInterval(int member) const;
 
  private:
   std::vector<Member> members_;

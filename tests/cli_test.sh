@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# End-to-end test of the iapsim program as a user runs it: run, info, export, topics, echo, bad configuration,
-# SIGTERM of a running launcher (clean stop, no process left behind).
+# End-to-end test of the iapsim program as a user runs it: run, info, export, topics, echo, bench record, bad
+# configuration, SIGTERM of a running launcher (clean stop, no process left behind).
 # usage: cli_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
 bin=$1
@@ -36,6 +36,18 @@ head -1 "$work/uwb.csv" | grep -q "^time_s,header.seq,header.stamp" || fail "csv
   --map /iap/uwb:=/old/uwb --duration 1 --out "$work/replayed" > /dev/null
 "$iapsim" info "$work/replayed/run.bag" > "$work/replayed.out"
 grep -Eq "^/old/uwb +iapsim_msgs/UwbRanges +201 " "$work/replayed.out" || fail "replay: $(cat "$work/replayed.out")"
+
+# bench record runs every variant of a scenario, prints the targets' verdicts and writes its figures
+"$iapsim" bench record --scenario "$src/configs/scenarios/bus_demo.yaml" --repeat 1 --json "$work/bench.json" \
+  > "$work/bench.out"
+grep -q "targets: recorded <= 1.3x unrecorded" "$work/bench.out" || fail "bench record: $(cat "$work/bench.out")"
+/usr/bin/python3 -c "
+import json, sys
+r = json.load(open(sys.argv[1]))['record']
+assert r['unrecorded']['messages'] == 0 and r['recorded']['messages'] == 16004, r
+assert r['recorded_lz4']['messages'] == 16004 and r['recorded_lz4']['bag_bytes'] < r['recorded']['bag_bytes'], r
+assert r['recorded']['bag_bytes'] > 0 and len(r['recorded']['wall_s']) == 1, r
+" "$work/bench.json" || fail "bench record: figures $(cat "$work/bench.json")"
 
 # interaction control is checked before anything flies: a mode it cannot work in, a section for the other law
 check_process() {  # EXEC SCENARIO NODE TEXT ARGS...: expects exit 2 and TEXT from the process's --check

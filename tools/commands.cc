@@ -84,11 +84,16 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
   std::printf("  %s/scenario.resolved.yaml   configuration as used\n", result.run_dir.c_str());
   std::printf("  %s/metrics.json             figures of the run\n", result.run_dir.c_str());
   if (metrics.is_object() && metrics["processes"].contains("recorder")) {
-    const auto& recorded = metrics["processes"]["recorder"]["process"]["recorded"];
-    uint64_t total = 0;
-    for (const auto& [topic, count] : recorded.items()) total += count.get<uint64_t>();
-    std::printf("  %s/run.bag                  %llu messages on %zu topics (iapsim info)\n",
-                result.run_dir.c_str(), static_cast<unsigned long long>(total), recorded.size());
+    const auto& recorder = metrics["processes"]["recorder"]["process"];
+    const std::string compression = recorder["compression"].get<std::string>();
+    char ratio[64] = "";
+    if (compression != "none") {
+      std::snprintf(ratio, sizeof(ratio), ", %s %.2fx smaller", compression.c_str(),
+                    recorder["compression_ratio"].get<double>());
+    }
+    std::printf("  %s/run.bag                  %llu messages on %zu topics, %.1f MiB%s (iapsim info)\n",
+                result.run_dir.c_str(), recorder["messages"].get<unsigned long long>(),
+                recorder["recorded"].size(), recorder["bag_bytes"].get<double>() / (1 << 20), ratio);
   }
   std::printf("  %s/log.txt, logs/           launcher and per-process logs\n", result.run_dir.c_str());
   EvaluateRun(result.run_dir, evaluation);
@@ -289,18 +294,20 @@ int Urdf(const std::string& vehicle_path, const std::string& output) {
   return 0;
 }
 
-int Bench(const std::string& what, const std::string& vehicle_path, const std::string& scene_path,
-          const std::string& json_path) {
+int Bench(const BenchArgs& args) {
   nlohmann::json report;
   int status = 0;
-  if (what == "bus" || what == "all") status |= BenchBus(&report);
-  if (what == "all") std::printf("\n");
-  if (what == "physics" || what == "all") status |= BenchPhysics(vehicle_path, &report);
-  if (what == "all") std::printf("\n");
-  if (what == "render" || what == "all") status |= BenchRender(scene_path, vehicle_path, &report);
-  if (!json_path.empty()) {
-    std::ofstream(json_path) << report.dump(2) << "\n";
-    std::printf("figures written to %s\n", json_path.c_str());
+  const bool all = args.what == "all";
+  if (args.what == "bus" || all) status |= BenchBus(&report);
+  if (all) std::printf("\n");
+  if (args.what == "physics" || all) status |= BenchPhysics(args.vehicle, &report);
+  if (all) std::printf("\n");
+  if (args.what == "render" || all) status |= BenchRender(args.scene, args.vehicle, &report);
+  if (all) std::printf("\n");
+  if (args.what == "record" || all) status |= BenchRecord(args.scenario, args.repeats, &report);
+  if (!args.json.empty()) {
+    std::ofstream(args.json) << report.dump(2) << "\n";
+    std::printf("figures written to %s\n", args.json.c_str());
   }
   return status;
 }

@@ -83,9 +83,19 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report);
 /// three stereo pairs (six images a frame), render only and render + PNG encode, with frame latencies.
 int BenchRender(const std::string& scene_path, const std::string& vehicle_path, nlohmann::json* report);
 
-/// Runs the benchmarks named by `what` (bus, physics, render or all); writes every figure to `json_path` if
-/// set.
-int Bench(const std::string& what, const std::string& vehicle_path, const std::string& scene_path,
-          const std::string& json_path);
+/// Wall time of a lockstep scenario run `repeats` times each with recording off, on, and on with lz4,
+/// alternating: best and median, real-time factor, the recorded/unrecorded ratio and the bag's size.
+int BenchRecord(const std::string& scenario, int repeats, nlohmann::json* report);
+
+struct BenchArgs {
+  std::string what = "all";  // bus, physics, render, record or all
+  std::string vehicle = "configs/vehicles/three_star.yaml";
+  std::string scene = "configs/scenes/buildings.yaml";
+  std::string scenario = "configs/regression/three_star_spiral.yaml";
+  int repeats = 3;
+  std::string json;  // also write every figure here
+};
+/// Runs the benchmarks named by `what`.
+int Bench(const BenchArgs& args);
 
 }  // namespace iapsim::tools

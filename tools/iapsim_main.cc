@@ -88,17 +88,19 @@ int main(int argc, char** argv) {
   urdf_cmd->add_option("vehicle", urdf_vehicle, "vehicle YAML")->required()->check(CLI::ExistingFile);
   urdf_cmd->add_option("-o,--output", urdf_output, "output file (default: standard output)");
 
-  std::string bench_what = "all";
-  std::string bench_json;
-  std::string bench_vehicle = "configs/vehicles/three_star.yaml";
-  std::string bench_scene = "configs/scenes/buildings.yaml";
+  BenchArgs bench;
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
-  bench_cmd->add_option("what", bench_what, "bus, physics, render or all")
-      ->check(CLI::IsMember({"bus", "physics", "render", "all"}));
-  bench_cmd->add_option("--vehicle", bench_vehicle,
+  bench_cmd->add_option("what", bench.what, "bus, physics, render, record or all")
+      ->check(CLI::IsMember({"bus", "physics", "render", "record", "all"}));
+  bench_cmd->add_option("--vehicle", bench.vehicle,
                         "physics, render: the vehicle to measure (default the three-star)");
-  bench_cmd->add_option("--scene", bench_scene, "render: the scene (default configs/scenes/buildings.yaml)");
-  bench_cmd->add_option("--json", bench_json, "also write the figures to this JSON file");
+  bench_cmd->add_option("--scene", bench.scene, "render: the scene (default configs/scenes/buildings.yaml)");
+  bench_cmd->add_option("--scenario", bench.scenario,
+                        "record: the lockstep scenario (default configs/regression/three_star_spiral.yaml)")
+      ->check(CLI::ExistingFile);
+  bench_cmd->add_option("--repeat", bench.repeats, "record: runs of each variant (default 3)")
+      ->check(CLI::Range(1, 100));
+  bench_cmd->add_option("--json", bench.json, "also write the figures to this JSON file");
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -112,7 +114,7 @@ int main(int argc, char** argv) {
     if (*topics_cmd) return Topics(topics);
     if (*echo_cmd) return Echo(echo);
     if (*urdf_cmd) return Urdf(urdf_vehicle, urdf_output);
-    if (*bench_cmd) return Bench(bench_what, bench_vehicle, bench_scene, bench_json);
+    if (*bench_cmd) return Bench(bench);
   } catch (const std::exception& e) {
     std::cerr << "iapsim: " << e.what() << std::endl;
     return 1;

@@ -453,7 +453,8 @@ bool ShmPublisher::Publish(std::string_view topic, const ByteSpan* parts, int co
   }
   if (block) {
     // lossless: each target gets the record once it has room; those still full at the deadline miss it
-    std::vector<char> written(targets_.size(), 0);
+    std::vector<char>& written = written_;
+    written.assign(targets_.size(), 0);
     size_t remaining = targets_.size();
     while (remaining > 0) {
       for (size_t i = 0; i < targets_.size(); ++i) {
@@ -617,9 +618,9 @@ bool ShmSubscriber::HasData() const {
   return false;
 }
 
-bool ShmSubscriber::PrepareSleep(std::vector<pollfd>* fds) {
+bool ShmSubscriber::PrepareSleep(std::vector<pollfd>* fds, bool announce) {
   for (auto& link : links_) {
-    if (link.page) link.page->SetSleeping(true);
+    if (link.page && announce) link.page->SetSleeping(true);
   }
   std::atomic_thread_fence(std::memory_order_seq_cst);  // see TakeSleeping
   if (HasData()) {

@@ -149,6 +149,7 @@ class ShmPublisher {
   int listen_fd_ = -1;
   std::vector<Link> links_;
   std::vector<Link*> targets_;
+  std::vector<char> written_;  // per target of a blocking Publish; storage reused
   std::vector<pollfd> poll_fds_;
   std::string stalled_;
 };
@@ -166,9 +167,10 @@ class ShmSubscriber {
   int Drain(int max_records, const std::function<void(const uint8_t*, size_t)>& record);
   bool HasData() const;
 
-  /// Before poll(): marks every connection asleep, appends the sockets to watch; false (and nothing marked)
-  /// if a record arrived meanwhile.
-  bool PrepareSleep(std::vector<pollfd>* fds);
+  /// Before poll(): marks every connection asleep (unless `announce` is false: then publishers never wake
+  /// it, and the caller polls its queues by the clock), appends the sockets to watch; false (and nothing
+  /// marked) if a record arrived meanwhile.
+  bool PrepareSleep(std::vector<pollfd>* fds, bool announce = true);
   void WakeUp();
 
  private:

@@ -9,10 +9,13 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
+#include <tuple>
 
 #include "bridge/bag.h"
 
@@ -84,23 +87,32 @@ std::string LoopScenario(double duration_s) {
   return s.str();
 }
 
+// messages per topic in a run's bag
+std::map<std::string, uint64_t> CountsInBag(const LaunchResult& result) {
+  std::map<std::string, uint64_t> counts;
+  for (const auto& t : BagReader(result.run_dir + "/run.bag").Topics()) counts[t.topic] = t.count;
+  return counts;
+}
+
 std::string FileBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-// processes of this test's runs still alive (their command line names the test's directory)
-int ProcessesMentioning(const std::string& text) {
-  int count = 0;
+// processes other than this one whose command line holds `text` (a test's directory: its runs' processes)
+std::vector<pid_t> ProcessesMentioning(const std::string& text) {
+  std::vector<pid_t> pids;
   DIR* proc = opendir("/proc");
   while (dirent* entry = readdir(proc)) {
     if (entry->d_name[0] < '0' || entry->d_name[0] > '9') continue;
     std::ifstream in(std::string("/proc/") + entry->d_name + "/cmdline", std::ios::binary);
     const std::string cmdline((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (cmdline.find(text) != std::string::npos && std::to_string(getpid()) != entry->d_name) ++count;
+    if (cmdline.find(text) != std::string::npos && std::to_string(getpid()) != entry->d_name) {
+      pids.push_back(std::atoi(entry->d_name));
+    }
   }
   closedir(proc);
-  return count;
+  return pids;
 }
 
 TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeterministically) {
@@ -116,9 +128,7 @@ TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeter
     EXPECT_EQ(metrics["processes"]["physics"]["process"]["commands_received"], 100001);
 
     // what was published is what the bag holds, topic by topic
-    BagReader bag(result.run_dir + "/run.bag");
-    std::map<std::string, uint64_t> in_bag;
-    for (const auto& t : bag.Topics()) in_bag[t.topic] = t.count;
+    std::map<std::string, uint64_t> in_bag = CountsInBag(result);
     EXPECT_EQ(in_bag["/iap/state"], 100001u);
     EXPECT_EQ(in_bag["/iap/cmd"], 100001u);
     EXPECT_EQ(in_bag["/iap/uwb"], 20001u);
@@ -134,9 +144,21 @@ TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeter
         EXPECT_EQ(counters["lost"].get<uint64_t>(), 0u) << process << " " << topic;
       }
     }
+    for (const std::string process : {"physics", "control", "uwb", "recorder"}) {
+      EXPECT_GT(metrics["processes"][process]["cpu_s"]["user"].get<double>(), 0.0) << process;
+    }
+    // the recorder's report: what it wrote and where its time went
+    const auto& recorder = metrics["processes"]["recorder"]["process"];
+    EXPECT_EQ(recorder["messages"].get<uint64_t>(), 100001u * 3 + 20001u);
+    EXPECT_EQ(recorder["bag_bytes"].get<uint64_t>(), fs::file_size(result.run_dir + "/run.bag"));
+    EXPECT_GT(recorder["record_bytes"].get<uint64_t>(), 100001u * 3 * 40);
+    EXPECT_GE(recorder["write_calls"].get<uint64_t>(), recorder["chunks"].get<uint64_t>());
+    for (const char* stage : {"receive", "records", "compress", "write"}) {
+      EXPECT_GE(recorder["time_s"][stage].get<double>(), 0.0) << stage;
+    }
     // record times are the sim time of the step that published the message
     int64_t last_uwb_ns = -1;
-    bag.ForEach({"/iap/uwb"}, [&](const BagMessage& m) {
+    BagReader(result.run_dir + "/run.bag").ForEach({"/iap/uwb"}, [&](const BagMessage& m) {
       iapsim_msgs::UwbRanges ranges;
       EXPECT_TRUE(Decode(m.bytes, &ranges, nullptr));
       // a bag cannot hold time 0: the first record time is 1 ns
@@ -154,6 +176,90 @@ TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeter
   }
 }
 
+TEST_F(LauncherTest, Lz4RecordingHoldsTheSameMessagesInASmallerBag) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
+  std::map<std::string, std::vector<std::tuple<std::string, int64_t, std::vector<uint8_t>>>> messages;
+  std::map<std::string, nlohmann::json> reports;
+  for (const std::string compression : {"none", "lz4"}) {
+    const LaunchResult result = Run(scenario, compression, {"recording.compression=" + compression});
+    ASSERT_EQ(result.exit_code, 0) << result.message;
+    reports[compression] = Metrics(result)["processes"]["recorder"]["process"];
+    BagReader(result.run_dir + "/run.bag").ForEach({}, [&](const BagMessage& m) {
+      messages[compression].emplace_back(m.topic, m.record_time_ns, m.bytes);
+      return true;
+    });
+  }
+  EXPECT_EQ(messages["none"].size(), 2001u * 3 + 401u);
+  EXPECT_TRUE(messages["lz4"] == messages["none"]) << "the lz4 bag holds other messages";
+  EXPECT_EQ(reports["lz4"]["compression"], "lz4");
+  EXPECT_GT(reports["lz4"]["compression_ratio"].get<double>(), 1.5);
+  EXPECT_LT(reports["lz4"]["bag_bytes"].get<uint64_t>(), reports["none"]["bag_bytes"].get<uint64_t>());
+  EXPECT_EQ(reports["none"]["compression_ratio"].get<double>(), 1.0);
+}
+
+TEST_F(LauncherTest, AStalledRecorderHoldsTheClockAtMaxLagStepsAndLosesNothing) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(30.0));
+  constexpr uint64_t kLag = 40;
+  // once the recorder has written its first chunk, it stops for half a second, as a stalled disk would stop
+  // it
+  std::thread staller([this] {
+    const fs::path bag = dir_ / "run" / "run.bag";
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    const auto bag_bytes = [&bag] {
+      std::error_code missing;
+      const auto bytes = fs::file_size(bag, missing);
+      return missing ? 0 : bytes;
+    };
+    while (bag_bytes() <= 4117 && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    // its command line: EXEC --scenario RUN_DIR/scenario.resolved.yaml ...
+    std::string recorder = "iapsim_recorder";
+    recorder += '\0';
+    recorder += "--scenario";
+    recorder += '\0';
+    recorder += (dir_ / "run").string();
+    for (const pid_t pid : ProcessesMentioning(recorder)) {
+      kill(pid, SIGSTOP);
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      kill(pid, SIGCONT);
+    }
+  });
+  const LaunchResult result = Run(scenario, "run", {"recording.max_lag_steps=" + std::to_string(kLag)});
+  staller.join();
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  const auto metrics = Metrics(result);
+  // acknowledged every max_lag_steps / 4 steps and at the last, not every step
+  EXPECT_EQ(metrics["processes"]["recorder"]["bus"]["topics"]["/iapsim/ack"]["sent"].get<uint64_t>(),
+            30000u / (kLag / 4) + 1);
+  // the clock ran ahead of the stalled recorder by max_lag_steps, no further, and waited there
+  const auto& lag = metrics["processes"]["physics"]["lag_steps"]["recorder"];
+  EXPECT_EQ(lag["limit"].get<uint64_t>(), kLag);
+  EXPECT_EQ(lag["max"].get<uint64_t>(), kLag);
+  EXPECT_GE(lag["clock_waits"].get<uint64_t>(), 1u);
+  // and nothing was dropped on the way
+  for (const std::string process : {"physics", "control", "uwb", "recorder"}) {
+    for (const auto& [topic, counters] : metrics["processes"][process]["bus"]["topics"].items()) {
+      EXPECT_EQ(counters["dropped"].get<uint64_t>() + counters["lost"].get<uint64_t>(), 0u)
+          << process << " " << topic;
+    }
+  }
+  std::map<std::string, uint64_t> in_bag = CountsInBag(result);
+  EXPECT_EQ(in_bag["/iap/state"], 30001u);
+  EXPECT_EQ(in_bag["/iap/cmd"], 30001u);
+  EXPECT_EQ(in_bag["/iap/uwb"], 6001u);
+}
+
+TEST_F(LauncherTest, WithoutLagTheRecorderAcknowledgesEveryStep) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
+  const LaunchResult result = Run(scenario, "run", {"recording.max_lag_steps=0"});
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  const auto metrics = Metrics(result);
+  EXPECT_FALSE(metrics["processes"]["physics"].contains("lag_steps"));
+  EXPECT_EQ(metrics["processes"]["recorder"]["bus"]["topics"]["/iapsim/ack"]["sent"].get<uint64_t>(), 2001u);
+  EXPECT_EQ(metrics["processes"]["recorder"]["process"]["messages"].get<uint64_t>(), 2001u * 3 + 401u);
+}
+
 TEST_F(LauncherTest, KilledParticipantEndsTheRunWithinOneSecondAndLeavesAReadableBag) {
   const std::string scenario = WriteScenario("loop", LoopScenario(60.0));
   const LaunchResult result = Run(scenario, "run", {"processes.control.params.kill_at_step=1500"});
@@ -163,9 +269,7 @@ TEST_F(LauncherTest, KilledParticipantEndsTheRunWithinOneSecondAndLeavesAReadabl
   EXPECT_NE(result.message.find("signal 9"), std::string::npos) << result.message;
 
   // the bag is readable and holds everything published before the kill at step 1500
-  BagReader bag(result.run_dir + "/run.bag");
-  std::map<std::string, uint64_t> in_bag;
-  for (const auto& t : bag.Topics()) in_bag[t.topic] = t.count;
+  std::map<std::string, uint64_t> in_bag = CountsInBag(result);
   EXPECT_EQ(in_bag["/iap/cmd"], 1500u);  // steps 0..1499
   EXPECT_EQ(in_bag["/iap/state"], 1501u);
   // the run is over within a second of the kill
@@ -177,7 +281,7 @@ TEST_F(LauncherTest, KilledParticipantEndsTheRunWithinOneSecondAndLeavesAReadabl
   EXPECT_LT(ended_after_s, 1.0) << "the run took " << ended_after_s << " s to end after the kill";
   EXPECT_GT(ended_after_s, 0.0);
   const auto metrics = Metrics(result);
-  EXPECT_EQ(ProcessesMentioning(dir_.string()), 0) << "processes left behind";
+  EXPECT_TRUE(ProcessesMentioning(dir_.string()).empty()) << "processes left behind";
   EXPECT_EQ(metrics["result"], "failed");
 }
 
@@ -187,7 +291,7 @@ TEST_F(LauncherTest, HungParticipantIsDetectedAndNamed) {
   EXPECT_EQ(result.exit_code, 1);
   EXPECT_NE(result.message.find("'uwb'"), std::string::npos) << result.message;
   EXPECT_NE(result.message.find("not responding"), std::string::npos) << result.message;
-  EXPECT_EQ(ProcessesMentioning(dir_.string()), 0) << "processes left behind";
+  EXPECT_TRUE(ProcessesMentioning(dir_.string()).empty()) << "processes left behind";
   BagReader bag(result.run_dir + "/run.bag");
   EXPECT_FALSE(bag.Topics().empty());
 }
@@ -203,6 +307,10 @@ TEST_F(LauncherTest, ConfigurationErrorsNameTheFileLineAndKey) {
        "did you mean 'noise_m'"},
       {"exec", "exec: iapsim_test_node\n    role: clock", "exec: no_such_program\n    role: clock",
        "no executable"},
+      {"compression", "seed: 42\n", "seed: 42\nrecording: {compression: zstd}\n",
+       "recording.compression: must be one of none, lz4"},
+      {"lag", "seed: 42\n", "seed: 42\nrecording: {max_lag_steps: 2000000}\n",
+       "recording.max_lag_steps: must be in [0, 1000000]"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.name);
