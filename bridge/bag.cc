@@ -84,6 +84,8 @@ BagReader::~BagReader() {
   }
 }
 
+const std::string& BagReader::path() const { return impl_->path; }
+
 std::vector<BagTopicInfo> BagReader::Topics() const { return impl_->topics; }
 
 int64_t BagReader::start_time_ns() const { return impl_->start_time_ns; }

@@ -96,6 +96,7 @@ class BagReader {
   BagReader(const BagReader&) = delete;
   BagReader& operator=(const BagReader&) = delete;
 
+  const std::string& path() const;
   /// Topics sorted by name.
   std::vector<BagTopicInfo> Topics() const;
   int64_t start_time_ns() const;

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <optional>
 #include <thread>
 #include <unordered_map>
 #include <zmq.hpp>
@@ -16,7 +17,10 @@
 namespace iapsim::bridge {
 namespace {
 
-constexpr uint8_t kWireVersion = 2;
+constexpr uint8_t kWireVersion = 3;
+// the meta frame's flags: the subscriber missed this topic's messages before this one by the publisher's
+// schedule (SetMutedPeers), not by loss
+constexpr uint8_t kResyncFlag = 1;
 constexpr char kHelloTopic[] = "/iapsim/hello";
 constexpr char kConfirmTopic[] = "/iapsim/hello_confirm";
 
@@ -40,6 +44,7 @@ bool ReadU16String(const uint8_t*& p, const uint8_t* end, std::string* s) {
 }
 
 struct Meta {
+  uint8_t flags = 0;
   uint64_t sequence = 0;
   int64_t sent_unix_ns = 0;
   std::string datatype;
@@ -49,10 +54,11 @@ struct Meta {
 
 bool ParseMeta(const uint8_t* p, size_t size, Meta* meta) {
   const uint8_t* end = p + size;
-  if (end - p < 17 || p[0] != kWireVersion) return false;
-  std::memcpy(&meta->sequence, p + 1, 8);
-  std::memcpy(&meta->sent_unix_ns, p + 9, 8);
-  p += 17;
+  if (end - p < 18 || p[0] != kWireVersion) return false;
+  meta->flags = p[1];
+  std::memcpy(&meta->sequence, p + 2, 8);
+  std::memcpy(&meta->sent_unix_ns, p + 10, 8);
+  p += 18;
   if (!ReadU16String(p, end, &meta->datatype)) return false;
   if (end - p < 32) return false;
   meta->md5.assign(reinterpret_cast<const char*>(p), 32);
@@ -91,6 +97,9 @@ struct Bus::Impl {
     uint64_t next = 0;
     TopicCounters* counters = nullptr;  // a node of BusStats::topics: its address never changes
     uint32_t stream = 0;                // received: MessageInfo::stream
+    // published: the meta frame, made once per type; each message writes its sequence and send time in
+    const TypeInfo* meta_type = nullptr;
+    std::string meta;
   };
   std::unordered_map<std::string, Sequence> published;
   std::unordered_map<std::string, Sequence> received;
@@ -98,7 +107,6 @@ struct Bus::Impl {
   std::set<std::string> hello_from, confirm_from;
   bool confirm_subscribed = false;
   int spins_since_drain = 0;
-  std::string meta_buffer;
   std::string topic;  // of the message being dispatched
   Meta meta;
 
@@ -197,11 +205,17 @@ struct Bus::Impl {
     auto found = received.find(received_key);
     if (found == received.end()) {
       const auto stream = static_cast<uint32_t>(received.size());
-      found = received.emplace(received_key, Sequence{meta.sequence, &stats.topics[topic], stream}).first;
+      Sequence sequence;
+      sequence.next = meta.sequence;
+      sequence.counters = &stats.topics[topic];
+      sequence.stream = stream;
+      found = received.emplace(received_key, std::move(sequence)).first;
     }
     Sequence& expected = found->second;
     ++expected.counters->received;
-    if (meta.sequence > expected.next) expected.counters->lost += meta.sequence - expected.next;
+    if (meta.sequence > expected.next && !(meta.flags & kResyncFlag)) {
+      expected.counters->lost += meta.sequence - expected.next;
+    }
     expected.next = meta.sequence + 1;
 
     const MessageInfo info{topic,         meta.datatype,     meta.md5,       meta.publisher,
@@ -308,22 +322,27 @@ std::string Bus::bound_endpoint() const {
 void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8_t* data, size_t size) {
   auto& impl = *impl_;
   auto found = impl.published.find(topic);
-  if (found == impl.published.end())
-    found = impl.published.emplace(topic, Impl::Sequence{0, &stats_.topics[topic]}).first;
+  if (found == impl.published.end()) {
+    Impl::Sequence sequence;
+    sequence.counters = &stats_.topics[topic];
+    found = impl.published.emplace(topic, std::move(sequence)).first;
+  }
   auto& counters = *found->second.counters;
   uint64_t& sequence = found->second.next;
 
-  std::string& meta = impl.meta_buffer;
-  meta.clear();
-  meta.push_back(static_cast<char>(kWireVersion));
-  meta.append(reinterpret_cast<const char*>(&sequence), 8);
+  std::string& meta = found->second.meta;
+  if (found->second.meta_type != &type) {  // [version][flags][sequence][send time][datatype][md5][publisher]
+    found->second.meta_type = &type;
+    meta.assign(1, static_cast<char>(kWireVersion));
+    meta.append(17, '\0');
+    AppendU16String(&meta, type.datatype);
+    meta.append(type.md5);
+    AppendU16String(&meta, impl.options.node_name);
+  }
   const int64_t sent_unix_ns = UnixTimeNs();
-  meta.append(reinterpret_cast<const char*>(&sent_unix_ns), 8);
-  AppendU16String(&meta, type.datatype);
-  meta.append(type.md5);
-  AppendU16String(&meta, impl.options.node_name);
+  std::memcpy(&meta[2], &sequence, 8);
+  std::memcpy(&meta[10], &sent_unix_ns, 8);
 
-  const auto deadline = std::chrono::steady_clock::now() + impl.options.block_timeout;
   const bool block = impl.options.drop_policy == DropPolicy::kBlock;
   if (impl.shm_publisher) {
     impl.AcceptSubscribers();
@@ -335,7 +354,7 @@ void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8
     bool delivered;
     try {
       delivered = impl.shm_publisher->Publish(std::string_view(topic.c_str(), topic.size() + 1), parts, 4,
-                                              block, deadline);
+                                              block, impl.options.block_timeout, &meta[1], kResyncFlag);
     } catch (const std::runtime_error& e) {
       throw BusError("node '" + impl.options.node_name + "', topic '" + topic + "': " + e.what());
     }
@@ -352,10 +371,12 @@ void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8
   }
   // the topic frame ends in '\0' so that subscribing to "/a" does not also match "/ab"
   zmq::const_buffer topic_frame(topic.c_str(), topic.size() + 1);
+  std::optional<std::chrono::steady_clock::time_point> deadline;  // read the clock only when a queue is full
   while (true) {
     const auto sent = impl.publisher.send(topic_frame, zmq::send_flags::sndmore | zmq::send_flags::dontwait);
     if (sent) break;
-    const bool can_wait = block && std::chrono::steady_clock::now() < deadline;
+    if (!deadline) deadline = std::chrono::steady_clock::now() + impl.options.block_timeout;
+    const bool can_wait = block && std::chrono::steady_clock::now() < *deadline;
     if (!can_wait) {
       ++counters.dropped;
       ++sequence;  // the gap tells subscribers that something was lost
@@ -369,6 +390,10 @@ void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8
   impl.publisher.send(zmq::const_buffer(data, size), zmq::send_flags::none);
   ++counters.sent;
   ++sequence;
+}
+
+void Bus::SetMutedPeers(const std::vector<std::string>& peers) {
+  if (impl_->shm_publisher) impl_->shm_publisher->SetMuted(peers);
 }
 
 void Bus::AddSubscription(const std::string& topic, bool exact, const TypeInfo* type, RawCallback callback) {

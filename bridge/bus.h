@@ -130,6 +130,11 @@ class Bus {
   /// Every message whose topic starts with `prefix` ("" for all), of any type, undecoded.
   void SubscribeRaw(const std::string& prefix, RawCallback callback);
 
+  /// Until the next call, these peers (node names) get none of this node's messages over shared memory,
+  /// whatever they subscribed to: the lockstep clock owner mutes, for a step, the processes not due at it.
+  /// ZeroMQ connections are not muted.
+  void SetMutedPeers(const std::vector<std::string>& peers);
+
   /// Waits up to `timeout` for a message, then dispatches everything already queued (at most `max_batch`).
   /// Returns the number of messages dispatched. Throws BusError on a type mismatch.
   int Spin(std::chrono::microseconds timeout, int max_batch = 1000);

@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <deque>
+#include <map>
+#include <memory>
 #include <random>
 #include <thread>
 
@@ -37,21 +39,29 @@ BusOptions Options(const std::string& name, const std::vector<std::string>& peer
   return options;
 }
 
-// Runs the start-up handshake between two buses in one thread, as two processes would.
-void Handshake(Bus& a, Bus& b) {
-  a.BeginHandshake();
-  b.BeginHandshake();
+// Runs the start-up handshake between buses in one thread, as their processes would.
+void Handshake(const std::vector<Bus*>& buses) {
+  for (Bus* bus : buses) bus->BeginHandshake();
+  auto complete = [&] {
+    for (Bus* bus : buses) {
+      std::vector<std::string> others;
+      for (Bus* other : buses) {
+        if (other != bus) others.push_back(other->node_name());
+      }
+      if (!bus->HandshakeComplete(others)) return false;
+    }
+    return true;
+  };
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (!(a.HandshakeComplete({b.node_name()}) && b.HandshakeComplete({a.node_name()}))) {
+  while (!complete()) {
     ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "handshake did not complete";
-    a.PublishHello();
-    b.PublishHello();
-    a.Spin(milliseconds(2));
-    b.Spin(milliseconds(2));
+    for (Bus* bus : buses) bus->PublishHello();
+    for (Bus* bus : buses) bus->Spin(milliseconds(2));
   }
-  a.EndHandshake();
-  b.EndHandshake();
+  for (Bus* bus : buses) bus->EndHandshake();
 }
+
+void Handshake(Bus& a, Bus& b) { Handshake({&a, &b}); }
 
 TEST_P(BusOn, DeliversEveryMessageAfterHandshakeInOrder) {
   Bus physics(Options("physics", {"control"}));
@@ -291,6 +301,45 @@ TEST(BusShm, GrowsTheQueueForALargeMessageAndRefusesOneTooLarge) {
     EXPECT_NE(std::string(e.what()).find("/image"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("4 MiB"), std::string::npos) << e.what();
   }
+}
+
+// Shared memory: a muted peer gets nothing, others everything; once unmuted, the gap it was muted over is
+// not counted as lost (real loss still is: ASlowSubscriberLosesMessagesAloneAndCountsThem).
+TEST(BusShm, AMutedPeerMissesMessagesWithoutCountingThemLost) {
+  auto options = Options("clock", {"due", "muted"});
+  options.bind_endpoint = "shm://iapsim-test-" + std::to_string(getpid()) + "-mute-clock";
+  Bus clock(options);
+  std::map<std::string, std::unique_ptr<Bus>> peers;
+  std::map<std::string, std::vector<uint64_t>> steps;
+  for (const std::string name : {"due", "muted"}) {
+    auto peer_options = Options(name, {name == "due" ? "muted" : "due"});
+    peer_options.peer_endpoints.push_back(options.bind_endpoint);
+    peers[name] = std::make_unique<Bus>(peer_options);
+    peers[name]->Subscribe<iapsim_msgs::IapState>(
+        "/iap/state", [&steps, name](const iapsim_msgs::IapState& s, const MessageInfo&) {
+          steps[name].push_back(s.step);
+        });
+  }
+  Handshake({&clock, peers["due"].get(), peers["muted"].get()});
+  auto spin_until = [&](const std::string& name, size_t count) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (steps[name].size() < count && std::chrono::steady_clock::now() < deadline) {
+      peers[name]->Spin(milliseconds(10));
+    }
+  };
+  iapsim_msgs::IapState state;
+  for (uint64_t k = 0; k < 10; ++k) {
+    clock.SetMutedPeers(k % 5 == 0 ? std::vector<std::string>{} : std::vector<std::string>{"muted"});
+    state.step = k;
+    clock.Publish("/iap/state", state);
+  }
+  spin_until("due", 10);
+  spin_until("muted", 2);
+  EXPECT_EQ(steps["due"].size(), 10u);
+  EXPECT_EQ(steps["muted"], (std::vector<uint64_t>{0, 5}));
+  EXPECT_EQ(peers["muted"]->stats().topics.at("/iap/state").lost, 0u);
+  EXPECT_EQ(peers["muted"]->stats().topics.at("/iap/state").received, 2u);
+  EXPECT_EQ(peers["due"]->stats().topics.at("/iap/state").lost, 0u);
 }
 
 // A subscriber asleep in Spin is woken by the publisher, not by its timeout.

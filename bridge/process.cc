@@ -175,6 +175,7 @@ class Runtime {
       if (StopRequested()) return;
       const StepInfo info{k, static_cast<int64_t>(k) * step_ns, k == last};
       sim_ns_ = info.stamp_ns;
+      MuteProcessesNotDue(k);
       process_.Step(info);
       // the tick goes last: it closes step k for every receiver (recorder included)
       clock.clock = ToRosTime(info.stamp_ns);
@@ -220,6 +221,26 @@ class Runtime {
     finished_ = true;
     control_.Send("done");
     while (!StopRequested(/*poll_now=*/true)) bus_.Spin(milliseconds(5));
+  }
+
+  // Lockstep and fast: the messages of step k (its state, /clock, the tick) reach only the processes due at
+  // k, which act on the newest state they have when due anyway: a 200 Hz controller is not woken four
+  // times in five for nothing. The last step reaches everyone (its tick ends the run). Realtime: every
+  // process runs on the newest message, so all get everything.
+  void MuteProcessesNotDue(uint64_t k) {
+    if (scenario_.mode == ClockMode::kRealtime) return;
+    not_due_.clear();
+    for (size_t m = 0; m < schedule_.members().size(); ++m) {
+      const int member = static_cast<int>(m);
+      if (member != self_index_ && k != scenario_.last_step() && !schedule_.Due(member, k)) {
+        not_due_.push_back(member);
+      }
+    }
+    if (not_due_ == muted_) return;
+    muted_ = not_due_;
+    muted_names_.clear();
+    for (const int member : muted_) muted_names_.push_back(schedule_.members()[member].name);
+    bus_.SetMutedPeers(muted_names_);
   }
 
   // how many steps before k a process that may lag has not acknowledged yet, now that k is published (at
@@ -352,6 +373,8 @@ class Runtime {
   };
   std::vector<LagStats> lags_;  // per member; the clock owner's only
   std::vector<StepInfo> waiting_ticks_;
+  std::vector<int> not_due_, muted_;  // clock owner: schedule members not due at a step; those muted now
+  std::vector<std::string> muted_names_;
   uint64_t next_ack_step_ = 0;  // the first step this process acknowledges after the last it did
   iapsim_msgs::StepAck ack_;
   int64_t sim_ns_ = 0;

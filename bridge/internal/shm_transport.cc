@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstddef>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
@@ -412,7 +413,12 @@ void ShmPublisher::MarkHungUp() {
 bool ShmPublisher::Wants(Link& link, std::string_view topic) {
   link.page->ReadSubscriptions(&link.prefixes, &link.subscriber);
   for (const auto& prefix : link.prefixes) {
-    if (topic.compare(0, prefix.size(), prefix) == 0) return true;
+    if (topic.compare(0, prefix.size(), prefix) != 0) continue;
+    if (!Muted(link)) return true;
+    if (std::find(link.muted_topics.begin(), link.muted_topics.end(), topic) == link.muted_topics.end()) {
+      link.muted_topics.emplace_back(topic);
+    }
+    return false;
   }
   return false;
 }
@@ -431,8 +437,24 @@ void ShmPublisher::Grow(Link& link, size_t record_bytes) {
   Wake(link);
 }
 
+bool ShmPublisher::Muted(const Link& link) const {
+  return std::find(muted_.begin(), muted_.end(), link.subscriber) != muted_.end();
+}
+
+// the record into the link's queue, flagged when the link missed the topic's earlier messages while muted
+bool ShmPublisher::WriteTo(Link& link, std::string_view topic, const ByteSpan* parts, int count, char* flags,
+                           char resync) {
+  const auto missed = std::find(link.muted_topics.begin(), link.muted_topics.end(), topic);
+  if (missed == link.muted_topics.end()) return link.queue->TryWrite(parts, count);
+  *flags |= resync;
+  const bool written = link.queue->TryWrite(parts, count);
+  *flags &= ~resync;
+  if (written) link.muted_topics.erase(missed);
+  return written;
+}
+
 bool ShmPublisher::Publish(std::string_view topic, const ByteSpan* parts, int count, bool block,
-                           SteadyClock::time_point deadline) {
+                           std::chrono::milliseconds block_timeout, char* flags, char resync) {
   size_t record_bytes = 0;
   for (int i = 0; i < count; ++i) record_bytes += parts[i].size;
   targets_.clear();
@@ -456,11 +478,12 @@ bool ShmPublisher::Publish(std::string_view topic, const ByteSpan* parts, int co
     std::vector<char>& written = written_;
     written.assign(targets_.size(), 0);
     size_t remaining = targets_.size();
+    std::optional<SteadyClock::time_point> deadline;  // read the clock only when a queue is full
     while (remaining > 0) {
       for (size_t i = 0; i < targets_.size(); ++i) {
         Link& link = *targets_[i];
         if (written[i]) continue;
-        if (link.dead || link.queue->TryWrite(parts, count)) {
+        if (link.dead || WriteTo(link, topic, parts, count, flags, resync)) {
           written[i] = 1;
           --remaining;
           if (!link.dead) Wake(link);
@@ -469,7 +492,8 @@ bool ShmPublisher::Publish(std::string_view topic, const ByteSpan* parts, int co
         }
       }
       if (remaining == 0) break;
-      if (SteadyClock::now() > deadline) {
+      if (!deadline) deadline = SteadyClock::now() + block_timeout;
+      if (SteadyClock::now() > *deadline) {
         stalled_.clear();
         for (size_t i = 0; i < targets_.size(); ++i) {
           if (!written[i]) stalled_ += (stalled_.empty() ? "'" : ", '") + targets_[i]->subscriber + "'";
@@ -483,13 +507,13 @@ bool ShmPublisher::Publish(std::string_view topic, const ByteSpan* parts, int co
   }
   bool all = true;
   for (Link* link : targets_) {
-    if (link->queue->TryWrite(parts, count)) {
+    if (WriteTo(*link, topic, parts, count, flags, resync)) {
       Wake(*link);
       continue;
     }
     if (link->queue->capacity() < options_.max_queue_bytes) {
       Grow(*link, record_bytes);
-      if (link->queue->TryWrite(parts, count)) {
+      if (WriteTo(*link, topic, parts, count, flags, resync)) {
         Wake(*link);
         continue;
       }

@@ -123,13 +123,18 @@ class ShmPublisher {
   void Accept();
 
   /// `topic` ends in '\0' (so "/a" does not match "/ab"). Queues grow up to max_queue_bytes; when one is
-  /// still full: block = wait for room up to `deadline`; otherwise that subscriber alone misses the record.
+  /// still full: block = wait for room up to `block_timeout`; otherwise that subscriber alone misses the record.
   /// True when the record went to every subscriber it had to. Throws if the record is larger than the largest
   /// queue can take.
+  /// `flags`, a byte of the record, gets `resync` for a subscriber that missed the topic's messages since its
+  /// last one because it was muted (SetMuted), and is restored after.
   bool Publish(std::string_view topic, const ByteSpan* parts, int count, bool block,
-               SteadyClock::time_point deadline);
+               std::chrono::milliseconds block_timeout, char* flags, char resync);
   /// After a blocking Publish returned false: the subscribers whose queues stayed full, quoted.
   const std::string& stalled() const { return stalled_; }
+  /// Subscribers (by node name) that get nothing until the next call, whatever they subscribed to; the next
+  /// record of a topic they get says they missed its earlier ones on purpose (see Publish's `flags`).
+  void SetMuted(const std::vector<std::string>& subscribers) { muted_ = subscribers; }
 
  private:
   struct Link {
@@ -139,9 +144,12 @@ class ShmPublisher {
     std::vector<std::string> prefixes;
     std::string subscriber;
     bool dead = false;
+    std::vector<std::string> muted_topics;  // it missed messages of these while muted: the next says so
   };
   void MarkHungUp();
   bool Wants(Link& link, std::string_view topic);
+  bool Muted(const Link& link) const;
+  bool WriteTo(Link& link, std::string_view topic, const ByteSpan* parts, int count, char* flags, char resync);
   void Grow(Link& link, size_t record_bytes);
   void Wake(Link& link);
 
@@ -152,6 +160,7 @@ class ShmPublisher {
   std::vector<char> written_;  // per target of a blocking Publish; storage reused
   std::vector<pollfd> poll_fds_;
   std::string stalled_;
+  std::vector<std::string> muted_;
 };
 
 /// The subscriber end: one connection per publisher endpoint, (re)connected as publishers come and go.
