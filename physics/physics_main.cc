@@ -89,6 +89,18 @@ class PhysicsNode : public bridge::Process {
       params.Fail("vehicles", e.what());
     }
     vehicles_.resize(sim_->vehicle_count());
+    for (int v = 0; v < sim_->vehicle_count(); ++v) {
+      const VehicleSpec& spec = sim_->vehicle(v);
+      VehicleBus& bus = vehicles_[v];
+      const std::string prefix = "/" + spec.name;
+      bus.state_topic = prefix + "/state";
+      bus.odom_topic = prefix + "/odom";
+      bus.wrench_topic = prefix + "/wrench/external";
+      for (const auto& sub : spec.vehicle.sub_aircraft) {
+        bus.sub_odom_topics.push_back(prefix + "/" + sub.name + "/odom");
+        bus.joint_names.push_back(sub.name + "_joint");
+      }
+    }
     latches_.resize(sim_->latch_count());
   }
 
@@ -157,6 +169,9 @@ class PhysicsNode : public bridge::Process {
     iapsim_msgs::IapState state;
     nav_msgs::Odometry odom;
     geometry_msgs::WrenchStamped wrench;
+    // made once: nothing in the step allocates for a name
+    std::string state_topic, odom_topic, wrench_topic;
+    std::vector<std::string> sub_odom_topics, joint_names;
   };
 
   void OnCommand(int v, const iapsim_msgs::IapCommand& command) {
@@ -253,7 +268,7 @@ class PhysicsNode : public bridge::Process {
       const BodyState& sub = world.body(out.sub_aircraft_bodies[s]);
       FillBody(world.body_name(out.sub_aircraft_bodies[s]), sub, &state.bodies[s + 1]);
       iapsim_msgs::JointState& joint = state.joints[s];
-      joint.name = model.name + "_joint";
+      joint.name = bus.joint_names[s];
       joint.type = model.joint == model::JointType::kSpherical ? iapsim_msgs::JointState::TYPE_SPHERICAL
                                                                : iapsim_msgs::JointState::TYPE_FIXED;
       joint.orientation_PS = ToQuaternionMsg(platform.q_WB.conjugate() * sub.q_WB);
@@ -271,19 +286,18 @@ class PhysicsNode : public bridge::Process {
     state.external_wrench_P.torque = ToVector3Msg(out.external_torque_P_Nm);
     state.external_wrench_W.force = ToVector3Msg(out.external_force_W_N);
     state.external_wrench_W.torque = ToVector3Msg(out.external_torque_W_Nm);
-    const std::string prefix = "/" + spec.name;
-    bus_->Publish(prefix + "/state", state);
+    bus_->Publish(bus.state_topic, state);
 
     FillOdometry(state.bodies[0], header, &bus.odom);
-    bus_->Publish(prefix + "/odom", bus.odom);
+    bus_->Publish(bus.odom_topic, bus.odom);
     for (size_t s = 0; s < n; ++s) {
       FillOdometry(state.bodies[s + 1], header, &bus.odom);
-      bus_->Publish(prefix + "/" + spec.vehicle.sub_aircraft[s].name + "/odom", bus.odom);
+      bus_->Publish(bus.sub_odom_topics[s], bus.odom);
     }
     bus.wrench.header = header;
     bus.wrench.header.frame_id = state.bodies[0].name;
     bus.wrench.wrench = state.external_wrench_P;
-    bus_->Publish(prefix + "/wrench/external", bus.wrench);
+    bus_->Publish(bus.wrench_topic, bus.wrench);
   }
 
   void PublishContacts(uint64_t step, const std_msgs::Header& header) {
