@@ -81,8 +81,9 @@ std::optional<ContactEvaluation> ReadContactEvaluation(bridge::YamlMap& evaluati
   return out;
 }
 
-nlohmann::json EvaluateContact(const std::string& run_dir, const ContactEvaluation& evaluation) {
-  const std::string bag_path = run_dir + "/run.bag";
+nlohmann::json EvaluateContact(const std::string& run_dir, const bridge::BagReader& bag,
+                               const ContactEvaluation& evaluation) {
+  const std::string& bag_path = bag.path();
   const std::string prefix = "/" + evaluation.vehicle;
   const std::string state_topic = prefix + "/state", setpoint_topic = prefix + "/setpoint",
                     filtered_topic = prefix + "/wrench/filtered", target_topic = prefix + "/wrench/target";
@@ -100,10 +101,13 @@ nlohmann::json EvaluateContact(const std::string& run_dir, const ContactEvaluati
   double max_raw_force_N = 0.0, max_raw_at_s = 0.0;
   std::optional<int64_t> first_contact_ns;
   std::string error;
-  bridge::BagReader bag(bag_path);
+  // decoded into the same messages each time: their vectors and strings keep their storage
+  iapsim_msgs::IapState state_message;
+  iapsim_msgs::Setpoint setpoint_message;
+  geometry_msgs::WrenchStamped wrench_message;
   bag.ForEach({state_topic, setpoint_topic, filtered_topic, target_topic}, [&](const bridge::BagMessage& m) {
     if (m.topic == state_topic) {
-      iapsim_msgs::IapState state;
+      iapsim_msgs::IapState& state = state_message;
       if (!bridge::Decode(m.bytes, &state, &error) || state.bodies.empty()) return false;
       const int64_t stamp = bridge::ToNanoseconds(state.header.stamp);
       StateAt& at = states[stamp];
@@ -117,11 +121,11 @@ nlohmann::json EvaluateContact(const std::string& run_dir, const ContactEvaluati
         max_raw_at_s = static_cast<double>(stamp) * 1e-9;
       }
     } else if (m.topic == setpoint_topic) {
-      iapsim_msgs::Setpoint setpoint;
+      iapsim_msgs::Setpoint& setpoint = setpoint_message;
       if (!bridge::Decode(m.bytes, &setpoint, &error)) return false;
       setpoints.emplace_back(bridge::ToNanoseconds(setpoint.header.stamp), setpoint.pose_W);
     } else {
-      geometry_msgs::WrenchStamped wrench;
+      geometry_msgs::WrenchStamped& wrench = wrench_message;
       if (!bridge::Decode(m.bytes, &wrench, &error)) return false;
       (m.topic == filtered_topic ? filtered : targets)[bridge::ToNanoseconds(wrench.header.stamp)] =
           WrenchOf(wrench.wrench);

@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 
+#include "bridge/bag.h"
 #include "bridge/config.h"
 
 namespace iapsim::tools {
@@ -40,7 +41,8 @@ std::optional<ContactEvaluation> ReadContactEvaluation(bridge::YamlMap& evaluati
 /// contact over the window). Wall push: when (21) engaged, the steady wrench and its error per axis
 /// (relative to the command where it is not zero), settling time per commanded axis, steady pose error.
 /// Throws std::runtime_error naming the file when the recording lacks a topic.
-nlohmann::json EvaluateContact(const std::string& run_dir, const ContactEvaluation& evaluation);
+nlohmann::json EvaluateContact(const std::string& run_dir, const bridge::BagReader& bag,
+                               const ContactEvaluation& evaluation);
 
 void PrintContact(const nlohmann::json& contact);
 

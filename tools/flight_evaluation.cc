@@ -72,11 +72,11 @@ std::optional<TrackingEvaluation> ReadTrackingEvaluation(bridge::YamlMap& evalua
   return out;
 }
 
-nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvaluation& evaluation) {
-  const std::string bag_path = run_dir + "/run.bag";
+nlohmann::json EvaluateTracking(const std::string& run_dir, const bridge::BagReader& bag,
+                                const TrackingEvaluation& evaluation) {
+  const std::string& bag_path = bag.path();
   const std::string state_topic = "/" + evaluation.vehicle + "/state";
   const std::string setpoint_topic = "/" + evaluation.vehicle + "/setpoint";
-  bridge::BagReader bag(bag_path);
 
   // States by physics stamp; each setpoint is stamped with the state it answered.
   std::map<int64_t, Pose> states;
@@ -84,9 +84,12 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvalua
   std::vector<std::pair<int64_t, Pose>> references;
   bool five_dof = false;
   std::string error;
+  // decoded into the same messages each time: their vectors and strings keep their storage
+  iapsim_msgs::IapState state_message;
+  iapsim_msgs::Setpoint setpoint_message;
   bag.ForEach({state_topic, setpoint_topic}, [&](const bridge::BagMessage& m) {
     if (m.topic == state_topic) {
-      iapsim_msgs::IapState state;
+      iapsim_msgs::IapState& state = state_message;
       if (!bridge::Decode(m.bytes, &state, &error) || state.bodies.empty()) return false;
       states[bridge::ToNanoseconds(state.header.stamp)] = PoseOf(state.bodies[0].pose_W);
       for (const auto& sub : state.sub_aircraft) {
@@ -96,7 +99,7 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvalua
         }
       }
     } else {
-      iapsim_msgs::Setpoint setpoint;
+      iapsim_msgs::Setpoint& setpoint = setpoint_message;
       if (!bridge::Decode(m.bytes, &setpoint, &error)) return false;
       five_dof = five_dof || setpoint.dof == iapsim_msgs::Setpoint::DOF_5;
       references.emplace_back(bridge::ToNanoseconds(setpoint.header.stamp), PoseOf(setpoint.pose_W));

@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 
+#include "bridge/bag.h"
 #include "bridge/config.h"
 
 namespace iapsim::tools {
@@ -23,11 +24,13 @@ struct TrackingEvaluation {
 /// none. Throws bridge::ConfigError naming the scenario file and key.
 std::optional<TrackingEvaluation> ReadTrackingEvaluation(bridge::YamlMap& evaluation);
 
-/// Evaluates run_dir/run.bag. Metrics: position error per W axis (RMSE, max |e|, m), ZYX Euler angle error
-/// (RMSE, max |e|, degrees; for an under-actuated IAP or a 5-DOF reference pitch and yaw are exactly the x
-/// axis's elevation and heading, and roll is the free swing), saturation counts. Throws std::runtime_error
+/// Evaluates the run in run_dir from its bag (run_dir/run.bag, opened by the caller). Metrics: position
+/// error per W axis (RMSE, max |e|, m), ZYX Euler angle error (RMSE, max |e|, degrees; for an under-actuated
+/// IAP or a 5-DOF reference pitch and yaw are exactly the x axis's elevation and heading, and roll is the
+/// free swing), saturation counts. Throws std::runtime_error
 /// naming the file when the recording lacks the topics.
-nlohmann::json EvaluateTracking(const std::string& run_dir, const TrackingEvaluation& evaluation);
+nlohmann::json EvaluateTracking(const std::string& run_dir, const bridge::BagReader& bag,
+                                const TrackingEvaluation& evaluation);
 
 /// ZYX Euler angles (roll, pitch, yaw) of an attitude, in rad.
 Eigen::Vector3d EulerZyx(const Eigen::Quaterniond& q);

@@ -1,5 +1,8 @@
 #include "tools/run_evaluation.h"
 
+#include <optional>
+
+#include "bridge/bag.h"
 #include "tools/video.h"
 
 namespace iapsim::tools {
@@ -27,17 +30,20 @@ RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario) {
 
 nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& evaluation) {
   nlohmann::json out = nlohmann::json::object();
+  const std::string bag_path = run_dir + "/run.bag";
+  // opened once for every analysis: reading a bag's index is most of what reading a few topics costs
+  std::optional<bridge::BagReader> bag;
+  if (evaluation.tracking || evaluation.contact) bag.emplace(bag_path);
   if (evaluation.tracking) {
-    out["tracking"] = EvaluateTracking(run_dir, *evaluation.tracking);
+    out["tracking"] = EvaluateTracking(run_dir, *bag, *evaluation.tracking);
     PrintTracking(out["tracking"]);
   }
   if (evaluation.contact) {
-    out["contact"] = EvaluateContact(run_dir, *evaluation.contact);
+    out["contact"] = EvaluateContact(run_dir, *bag, *evaluation.contact);
     PrintContact(out["contact"]);
   }
-  const std::string bag = run_dir + "/run.bag";
   for (const std::string& camera : evaluation.videos) {
-    const CameraVideo video = WriteCameraVideo(bag, camera, DefaultVideoPath(bag, camera));
+    const CameraVideo video = WriteCameraVideo(bag_path, camera, DefaultVideoPath(bag_path, camera));
     PrintCameraVideo(video);
     out["videos"][video.topic] = {
         {"video", video.video_path}, {"sheet", video.sheet_path}, {"images", video.images}};
