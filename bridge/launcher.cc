@@ -233,8 +233,10 @@ class Supervisor {
       if (wait4(child.pid, &status, WNOHANG, &usage) != child.pid) continue;
       child.exited = true;
       child.status = status;
-      child.cpu_user_s = static_cast<double>(usage.ru_utime.tv_sec) + 1e-6 * static_cast<double>(usage.ru_utime.tv_usec);
-      child.cpu_system_s = static_cast<double>(usage.ru_stime.tv_sec) + 1e-6 * static_cast<double>(usage.ru_stime.tv_usec);
+      child.cpu_user_s =
+          static_cast<double>(usage.ru_utime.tv_sec) + 1e-6 * static_cast<double>(usage.ru_utime.tv_usec);
+      child.cpu_system_s =
+          static_cast<double>(usage.ru_stime.tv_sec) + 1e-6 * static_cast<double>(usage.ru_stime.tv_usec);
       const bool clean = WIFEXITED(status) && WEXITSTATUS(status) == 0;
       if (!stopping_ || (!clean && !completed_ && failure_.empty())) {
         Fail("process '" + child.name + "' (pid " + std::to_string(child.pid) + ") " + DescribeExit(status) +
@@ -490,8 +492,9 @@ LaunchResult Launch(const LaunchOptions& options) {
   // what each process costs per simulated second: where a run's time goes
   if (metrics.contains("sim_time_s") && metrics["sim_time_s"].get<double>() > 0.0) {
     for (auto& [name, entry] : metrics["processes"].items()) {
-      entry["cpu_s_per_sim_s"] = (entry["cpu_s"]["user"].get<double>() + entry["cpu_s"]["system"].get<double>()) /
-                                 metrics["sim_time_s"].get<double>();
+      entry["cpu_s_per_sim_s"] =
+          (entry["cpu_s"]["user"].get<double>() + entry["cpu_s"]["system"].get<double>()) /
+          metrics["sim_time_s"].get<double>();
     }
   }
   std::ofstream(result.run_dir + "/metrics.json") << metrics.dump(2) << "\n";

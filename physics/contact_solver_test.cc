@@ -1,7 +1,6 @@
-// The factored contact rows (physics/internal/contact_solver.h) against Bullet's own: the Jacobian of a contact
-// point and M⁻¹Jᵀ for every link of a tree with spherical and fixed joints in a random configuration, and a
-// stepped contact scene with either set of rows.
-#include "physics/internal/collision_configuration.h"
+// The factored contact rows (physics/internal/contact_solver.h) against Bullet's own: the Jacobian of a
+// contact point and M⁻¹Jᵀ for every link of a tree with spherical and fixed joints in a random configuration,
+// and a stepped contact scene with either set of rows.
 #include "physics/internal/contact_solver.h"
 
 #include <gtest/gtest.h>
@@ -10,6 +9,7 @@
 
 #include "model/urdf.h"
 #include "model/vehicle.h"
+#include "physics/internal/collision_configuration.h"
 #include "physics/simulation.h"
 
 namespace iapsim::physics {
@@ -26,8 +26,8 @@ btQuaternion RandomRotation(std::mt19937& random) {
   return q.normalized();
 }
 
-// A tree like a vehicle's with a tool: base, spherical links 0 and 1 on it, spherical link 2 on link 0, a fixed
-// link 3 on the base and a spherical link 4 on that, every frame turned and offset arbitrarily.
+// A tree like a vehicle's with a tool: base, spherical links 0 and 1 on it, spherical link 2 on link 0, a
+// fixed link 3 on the base and a spherical link 4 on that, every frame turned and offset arbitrarily.
 std::unique_ptr<btMultiBody> MakeTree(std::mt19937& random) {
   auto tree = std::make_unique<btMultiBody>(5, 1.1, btVector3(0.02, 0.03, 0.04), false, false);
   const btVector3 inertia(0.013, 0.011, 0.024);
@@ -66,7 +66,8 @@ TEST(MultibodyMass, JacobiansAndResponsesAreBulletsForEveryLink) {
     btAlignedObjectArray<btScalar> scratch_r;
     btAlignedObjectArray<btVector3> scratch_v;
     btAlignedObjectArray<btMatrix3x3> scratch_m;
-    tree->computeAccelerationsArticulatedBodyAlgorithmMultiDof(0.001, scratch_r, scratch_v, scratch_m, false, false, false);
+    tree->computeAccelerationsArticulatedBodyAlgorithmMultiDof(0.001, scratch_r, scratch_v, scratch_m, false,
+                                                               false, false);
     btAlignedObjectArray<btQuaternion> world_to_local;
     btAlignedObjectArray<btVector3> local_origin;
     world_to_local.resize(tree->getNumLinks() + 1);
@@ -128,27 +129,30 @@ TEST(ContactSolver, FactoredRowsStepAContactSceneAsBulletsRowsDo) {
   double max_position_difference_m = 0.0, max_force_difference_N = 0.0;
   for (int k = 0; k < 1500; ++k) {
     for (auto& sim : sims) {
-      if (k >= 500) sim->mutable_world().AddForce_W(sim->output(0).platform_body, Eigen::Vector3d(60.0, 20.0, 0.0));
+      if (k >= 500)
+        sim->mutable_world().AddForce_W(sim->output(0).platform_body, Eigen::Vector3d(60.0, 20.0, 0.0));
       sim->Step();
     }
     for (int body = 0; body < sims[0]->world().body_count(); ++body) {
-      max_position_difference_m = std::max(
-          max_position_difference_m, (sims[0]->world().body(body).p_WB_m - sims[1]->world().body(body).p_WB_m).norm());
+      max_position_difference_m =
+          std::max(max_position_difference_m,
+                   (sims[0]->world().body(body).p_WB_m - sims[1]->world().body(body).p_WB_m).norm());
     }
-    max_force_difference_N = std::max(
-        max_force_difference_N, (sims[0]->output(0).external_force_W_N - sims[1]->output(0).external_force_W_N).norm());
+    max_force_difference_N =
+        std::max(max_force_difference_N,
+                 (sims[0]->output(0).external_force_W_N - sims[1]->output(0).external_force_W_N).norm());
   }
   const double slid_m = sims[0]->world().body(sims[0]->output(0).platform_body).p_WB_m.head<2>().norm();
-  std::printf("factored vs Bullet's rows: %.2e m, %.2e N apart at most; slid %.3f m\n", max_position_difference_m,
-              max_force_difference_N, slid_m);
+  std::printf("factored vs Bullet's rows: %.2e m, %.2e N apart at most; slid %.3f m\n",
+              max_position_difference_m, max_force_difference_N, slid_m);
   EXPECT_GT(slid_m, 0.1);
   EXPECT_LT(max_position_difference_m, 1e-9);
   EXPECT_LT(max_force_difference_N, 1e-6);
 }
 
-// The test that culls convex pairs before GJK never calls two bounds (boxes and cylinders) apart that come within
-// the gap: random pairs, their distance estimated from points spread through both (an upper bound of the true
-// distance).
+// The test that culls convex pairs before GJK never calls two bounds (boxes and cylinders) apart that come
+// within the gap: random pairs, their distance estimated from points spread through both (an upper bound of
+// the true distance).
 TEST(BoundsApart, NeverSeparatesBoundsWithinTheGap) {
   std::mt19937 random(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -180,7 +184,8 @@ TEST(BoundsApart, NeverSeparatesBoundsWithinTheGap) {
     const std::vector<Eigen::Vector3d> points_a = samples(a), points_b = samples(b);
     double sampled_m = 1e9;
     for (const auto& p : points_a) {
-      for (size_t j = 0; j < points_b.size(); j += 7) sampled_m = std::min(sampled_m, (p - points_b[j]).norm());
+      for (size_t j = 0; j < points_b.size(); j += 7)
+        sampled_m = std::min(sampled_m, (p - points_b[j]).norm());
     }
     const bool separated = internal::BoundsApart(a, b, gap_m);
     if (sampled_m <= gap_m) {
@@ -213,15 +218,17 @@ TEST(BoundsApart, ACylinderIsCulledAsACylinderNotItsBox) {
   EXPECT_FALSE(internal::BoundsApart(pole_box, wall, 0.0066));
 }
 
-// A thin plate turned 30 degrees about two axes: its principal box holds every point and is as thin as the plate,
-// where its bounds along the frame's axes are not.
+// A thin plate turned 30 degrees about two axes: its principal box holds every point and is as thin as the
+// plate, where its bounds along the frame's axes are not.
 TEST(PrincipalBox, FitsATurnedPlate) {
-  const Eigen::Matrix3d R = (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX()))
-                                .toRotationMatrix();
+  const Eigen::Matrix3d R =
+      (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
   std::vector<Eigen::Vector3d> points;
   for (const double x : {-0.1, 0.1}) {
     for (const double y : {-0.05, 0.05}) {
-      for (const double z : {-0.002, 0.002}) points.push_back(Eigen::Vector3d(0.3, 0.2, 0.1) + R * Eigen::Vector3d(x, y, z));
+      for (const double z : {-0.002, 0.002})
+        points.push_back(Eigen::Vector3d(0.3, 0.2, 0.1) + R * Eigen::Vector3d(x, y, z));
     }
   }
   const internal::ShapeBox box = internal::PrincipalBox(points);

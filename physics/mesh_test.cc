@@ -181,7 +181,8 @@ TEST(MeshCollision, APoleDroppedIntoTheFunnelEndsInTheHole) {
   const auto energy_J = [&] {
     const BodyState& body = world.body(id);
     const Eigen::Vector3d w_B = body.q_WB.conjugate() * body.w_WB_W;
-    return 0.5 * link.mass.mass_kg * body.v_WBcom_W.squaredNorm() + 0.5 * w_B.dot(link.mass.inertia_B_kgm2 * w_B) -
+    return 0.5 * link.mass.mass_kg * body.v_WBcom_W.squaredNorm() +
+           0.5 * w_B.dot(link.mass.inertia_B_kgm2 * w_B) -
            link.mass.mass_kg * kGravity_mps2 * body.p_WBcom_m.z();
   };
   for (int k = 0; k < 2000; ++k) world.Step();

@@ -171,9 +171,10 @@ struct MultibodyWorld::Impl {
 
   std::vector<Body> bodies;
   std::vector<BodyState> states;
-  std::vector<Load> loads, last_loads, sleep_loads;  // per body: this step's, the last step's, when it fell asleep
-  std::vector<Sleep> sleep;                          // per multibody
-  std::vector<char> touching;                        // per multibody: it has a contact point this step
+  std::vector<Load> loads, last_loads,
+      sleep_loads;             // per body: this step's, the last step's, when it fell asleep
+  std::vector<Sleep> sleep;    // per multibody
+  std::vector<char> touching;  // per multibody: it has a contact point this step
   std::vector<Contact> contacts;
   int64_t step_count = 0;
 
@@ -191,7 +192,8 @@ struct MultibodyWorld::Impl {
     solver.set_warm_start(config.warm_start);
     solver.set_factored_rows(config.factored_contact_rows);
     // rigid bodies' contacts (movable world objects) are Bullet's own rows, warm started by Bullet with the
-    // whole last impulse as well (its default 0.85 leaves a resting crate 1e-3 N off its weight at the tolerance)
+    // whole last impulse as well (its default 0.85 leaves a resting crate 1e-3 N off its weight at the
+    // tolerance)
     if (config.warm_start) {
       info.m_warmstartingFactor = 1.0;
     } else {
@@ -469,8 +471,8 @@ struct MultibodyWorld::Impl {
 
   // Sleeping is ours, not Bullet's (whose test sums squared velocities of mixed units and ignores loads):
   // Bullet may not sleep or wake a multibody by itself (canSleep with canWakeup off, a threshold it never
-  // meets); we put it to sleep, and Bullet's islands then skip it until we wake it or a moving body touching it
-  // keeps its island awake.
+  // meets); we put it to sleep, and Bullet's islands then skip it until we wake it or a moving body touching
+  // it keeps its island awake.
   static void AllowSleepByUsOnly(btMultiBody* multibody) {
     multibody->setCanSleep(true);
     multibody->setCanWakeup(false);
@@ -547,7 +549,8 @@ struct MultibodyWorld::Impl {
       bool still = settings.sleep_after_s > 0.0 && touching[m];
       for (const int b : members) {
         const BodyState& body = states[b];
-        still = still && body.v_WBcom_W.norm() + body.w_WB_W.norm() * bodies[b].radius_m < settings.sleep_speed_mps &&
+        still = still &&
+                body.v_WBcom_W.norm() + body.w_WB_W.norm() * bodies[b].radius_m < settings.sleep_speed_mps &&
                 loads[b].SameAs(last_loads[b]);
       }
       state.still_s = still ? state.still_s + step_s : 0.0;

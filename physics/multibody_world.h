@@ -13,7 +13,8 @@
 // Fidelity settings (see NOTES): no damping, no velocity clamps, one Bullet step per Step() (no substeps,
 // no accumulator). Contacts and latches are solved by Bullet's sequential impulses (projected Gauss-Seidel):
 // warm started from the last step's impulses and iterated until no constraint row changes a velocity by more
-// than `solver_tolerance_mps`, at most `solver_iterations` times (SolverStats says how often that cap was hit).
+// than `solver_tolerance_mps`, at most `solver_iterations` times (SolverStats says how often that cap was
+// hit).
 //
 // Latches join two bodies rigidly at run time (docking, seed §IV-E): a Bullet fixed constraint holding the
 // relative pose the bodies had when it closed. While it is closed, contacts between the two bodies are

@@ -198,8 +198,8 @@ TEST(Simulation, AWarmStartedSolveOfAnIapAtRestEndsInAFewIterations) {
     const SolverStats settled = sim.world().solver_stats();
     for (int k = 0; k < 500; ++k) sim.Step();
     const SolverStats& stats = sim.world().solver_stats();
-    const double mean_iterations =
-        static_cast<double>(stats.iterations - settled.iterations) / static_cast<double>(stats.solves - settled.solves);
+    const double mean_iterations = static_cast<double>(stats.iterations - settled.iterations) /
+                                   static_cast<double>(stats.solves - settled.solves);
     const double weight_N = sim.vehicle(0).vehicle.TotalMass_kg() * 9.81;
     std::printf("three-star at rest, %s: %.1f iterations a step, external force %.9f N (weight %.9f N)\n",
                 warm_start ? "warm started" : "cold", mean_iterations, -sim.output(0).external_force_W_N.z(),

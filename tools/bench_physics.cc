@@ -38,7 +38,8 @@ model::Vehicle WithSubAircraft(const model::Vehicle& base, int n) {
   return vehicle;
 }
 
-physics::SimulationConfig Scene(const model::Vehicle& vehicle, bool contacts, const physics::WorldConfig& world) {
+physics::SimulationConfig Scene(const model::Vehicle& vehicle, bool contacts,
+                                const physics::WorldConfig& world) {
   physics::SimulationConfig config;
   config.world = world;  // with the ground: in the air it is 2 m below, as in a flight
   physics::VehicleSpec spec;

@@ -95,8 +95,9 @@ int main(int argc, char** argv) {
   bench_cmd->add_option("--vehicle", bench.vehicle,
                         "physics, render: the vehicle to measure (default the three-star)");
   bench_cmd->add_option("--scene", bench.scene, "render: the scene (default configs/scenes/buildings.yaml)");
-  bench_cmd->add_option("--scenario", bench.scenario,
-                        "record: the lockstep scenario (default configs/regression/three_star_spiral.yaml)")
+  bench_cmd
+      ->add_option("--scenario", bench.scenario,
+                   "record: the lockstep scenario (default configs/regression/three_star_spiral.yaml)")
       ->check(CLI::ExistingFile);
   bench_cmd->add_option("--repeat", bench.repeats, "record: runs of each variant (default 3)")
       ->check(CLI::Range(1, 100));

@@ -50,8 +50,9 @@ std::string Boxes(const std::vector<model::Shape>& shapes, const std::string& bo
       throw std::invalid_argument(body + ": the resting scene takes box shapes only");
     }
     // friction: Bullet multiplies the two bodies' (0.5 x the ground's 1), MuJoCo takes the larger
-    out += "<geom type=\"box\" size=\"" + Vector(0.5 * shape.box_size_m) + "\" pos=\"" + Vector(shape.origin_B_m) +
-           "\" quat=\"" + Quaternion(model::RotationFromRpy(shape.rpy_B_rad)) + "\" friction=\"0.5 0.005 0.0001\"/>";
+    out += "<geom type=\"box\" size=\"" + Vector(0.5 * shape.box_size_m) + "\" pos=\"" +
+           Vector(shape.origin_B_m) + "\" quat=\"" + Quaternion(model::RotationFromRpy(shape.rpy_B_rad)) +
+           "\" friction=\"0.5 0.005 0.0001\"/>";
   }
   return out;
 }
@@ -86,17 +87,20 @@ double RestingPlatformZ_m(const model::Vehicle& vehicle) {
 }
 
 std::string RestingVehicleMjcf(const model::Vehicle& vehicle, const std::string& solver) {
-  if (!vehicle.tools.empty()) throw std::invalid_argument(vehicle.name + ": the MuJoCo reference scene has no tools");
+  if (!vehicle.tools.empty())
+    throw std::invalid_argument(vehicle.name + ": the MuJoCo reference scene has no tools");
   std::string mjcf = "<mujoco model=\"" + vehicle.name + "\">";
   // NED: gravity along +z, the ground's solid side below z = 0 (a plane turned over: its normal −z)
   mjcf += "<option timestep=\"0.001\" gravity=\"0 0 9.81\" solver=\"" + solver +
           "\" iterations=\"100\" tolerance=\"1e-8\"/>";
   mjcf += "<worldbody><geom type=\"plane\" size=\"0 0 1\" quat=\"0 1 0 0\" friction=\"1 0.005 0.0001\"/>";
-  mjcf += "<body name=\"platform\" pos=\"0 0 " + std::to_string(RestingPlatformZ_m(vehicle)) + "\"><freejoint/>" +
-          Inertial(vehicle.platform) + Boxes(vehicle.platform_collision, vehicle.name + " platform");
+  mjcf += "<body name=\"platform\" pos=\"0 0 " + std::to_string(RestingPlatformZ_m(vehicle)) +
+          "\"><freejoint/>" + Inertial(vehicle.platform) +
+          Boxes(vehicle.platform_collision, vehicle.name + " platform");
   for (const model::SubAircraft& sub : vehicle.sub_aircraft) {
     mjcf += "<body name=\"" + sub.name + "\" pos=\"" + Vector(sub.joint_P_m) + "\" quat=\"" +
-            Quaternion(Eigen::AngleAxisd(sub.initial_yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix()) + "\">";
+            Quaternion(Eigen::AngleAxisd(sub.initial_yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix()) +
+            "\">";
     if (sub.joint == model::JointType::kSpherical) mjcf += "<joint type=\"ball\"/>";
     mjcf += Inertial(sub.mass) + Boxes(sub.collision, vehicle.name + " " + sub.name) + "</body>";
   }
@@ -104,7 +108,8 @@ std::string RestingVehicleMjcf(const model::Vehicle& vehicle, const std::string&
   return mjcf;
 }
 
-MujocoFigures MeasureMujocoResting(const model::Vehicle& vehicle, const std::string& solver, double min_seconds) {
+MujocoFigures MeasureMujocoResting(const model::Vehicle& vehicle, const std::string& solver,
+                                   double min_seconds) {
   const std::string mjcf = RestingVehicleMjcf(vehicle, solver);
   // MuJoCo 2.2 parses XML from files only: a virtual file system holds it
   mjVFS vfs;
@@ -115,7 +120,8 @@ MujocoFigures MeasureMujocoResting(const model::Vehicle& vehicle, const std::str
   }
   std::memcpy(vfs.filedata[mj_findFileVFS(&vfs, kFile)], mjcf.data(), mjcf.size());
   char error[1000] = "";
-  std::unique_ptr<mjModel, void (*)(mjModel*)> model(mj_loadXML(kFile, &vfs, error, sizeof(error)), mj_deleteModel);
+  std::unique_ptr<mjModel, void (*)(mjModel*)> model(mj_loadXML(kFile, &vfs, error, sizeof(error)),
+                                                     mj_deleteModel);
   mj_deleteVFS(&vfs);
   if (!model) throw std::runtime_error(std::string("MuJoCo rejected the scene: ") + error);
   std::unique_ptr<mjData, void (*)(mjData*)> data(mj_makeData(model.get()), mj_deleteData);

@@ -28,6 +28,7 @@ double RestingPlatformZ_m(const model::Vehicle& vehicle);
 std::string RestingVehicleMjcf(const model::Vehicle& vehicle, const std::string& solver);
 
 /// Steps that scene for at least `min_seconds` after a 2 s settle and measures it.
-MujocoFigures MeasureMujocoResting(const model::Vehicle& vehicle, const std::string& solver, double min_seconds);
+MujocoFigures MeasureMujocoResting(const model::Vehicle& vehicle, const std::string& solver,
+                                   double min_seconds);
 
 }  // namespace iapsim::tools

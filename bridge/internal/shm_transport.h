@@ -123,11 +123,10 @@ class ShmPublisher {
   void Accept();
 
   /// `topic` ends in '\0' (so "/a" does not match "/ab"). Queues grow up to max_queue_bytes; when one is
-  /// still full: block = wait for room up to `block_timeout`; otherwise that subscriber alone misses the record.
-  /// True when the record went to every subscriber it had to. Throws if the record is larger than the largest
-  /// queue can take.
-  /// `flags`, a byte of the record, gets `resync` for a subscriber that missed the topic's messages since its
-  /// last one because it was muted (SetMuted), and is restored after.
+  /// still full: block = wait for room up to `block_timeout`; otherwise that subscriber alone misses the
+  /// record. True when the record went to every subscriber it had to. Throws if the record is larger than the
+  /// largest queue can take. `flags`, a byte of the record, gets `resync` for a subscriber that missed the
+  /// topic's messages since its last one because it was muted (SetMuted), and is restored after.
   bool Publish(std::string_view topic, const ByteSpan* parts, int count, bool block,
                std::chrono::milliseconds block_timeout, char* flags, char resync);
   /// After a blocking Publish returned false: the subscribers whose queues stayed full, quoted.
@@ -149,7 +148,8 @@ class ShmPublisher {
   void MarkHungUp();
   bool Wants(Link& link, std::string_view topic);
   bool Muted(const Link& link) const;
-  bool WriteTo(Link& link, std::string_view topic, const ByteSpan* parts, int count, char* flags, char resync);
+  bool WriteTo(Link& link, std::string_view topic, const ByteSpan* parts, int count, char* flags,
+               char resync);
   void Grow(Link& link, size_t record_bytes);
   void Wake(Link& link);
 

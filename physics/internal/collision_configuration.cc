@@ -10,11 +10,10 @@
 #include <BulletCollision/CollisionShapes/btCylinderShape.h>
 #include <BulletCollision/NarrowPhaseCollision/btPersistentManifold.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/Eigenvalues>
 
 namespace iapsim::physics::internal {
 namespace {
@@ -119,7 +118,9 @@ class CulledConvexAlgorithm final : public btCollisionAlgorithm {
     return gjk_->calculateTimeOfImpact(body0, body1, dispatch_info, result);
   }
 
-  void getAllContactManifolds(btManifoldArray& manifolds) override { gjk_->getAllContactManifolds(manifolds); }
+  void getAllContactManifolds(btManifoldArray& manifolds) override {
+    gjk_->getAllContactManifolds(manifolds);
+  }
 
  private:
   btCollisionAlgorithm* gjk_;
@@ -199,7 +200,7 @@ CollisionConfiguration::CollisionConfiguration()
 CollisionConfiguration::~CollisionConfiguration() { delete culled_convex_create_func_; }
 
 btCollisionAlgorithmCreateFunc* CollisionConfiguration::getCollisionAlgorithmCreateFunc(int proxy_type_0,
-                                                                                       int proxy_type_1) {
+                                                                                        int proxy_type_1) {
   btCollisionAlgorithmCreateFunc* bullet =
       btDefaultCollisionConfiguration::getCollisionAlgorithmCreateFunc(proxy_type_0, proxy_type_1);
   return bullet == m_convexConvexCreateFunc ? culled_convex_create_func_ : bullet;

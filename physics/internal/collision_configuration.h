@@ -1,11 +1,11 @@
 #pragma once
-// Bullet's default collision configuration, with one change: a pair of convex shapes that Bullet would hand to
-// GJK (btConvexConvexAlgorithm: cylinders, cones and convex hulls against each other and against boxes) first
-// has its two bounds (oriented boxes, or the cylinder itself) tested for separation, and goes to GJK only when
-// they come within the contact breaking distance. Bullet culls the children of a compound by world-aligned
-// boxes only, so the §VI-E pole (1 m long, pitched) overlapped 96 of the funnel's 97 pieces' boxes and ran GJK
-// on each of them every step, in the hole 650,000 of a step's 1.3 M instructions (callgrind). Internal to
-// physics/.
+// Bullet's default collision configuration, with one change: a pair of convex shapes that Bullet would hand
+// to GJK (btConvexConvexAlgorithm: cylinders, cones and convex hulls against each other and against boxes)
+// first has its two bounds (oriented boxes, or the cylinder itself) tested for separation, and goes to GJK
+// only when they come within the contact breaking distance. Bullet culls the children of a compound by
+// world-aligned boxes only, so the §VI-E pole (1 m long, pitched) overlapped 96 of the funnel's 97 pieces'
+// boxes and ran GJK on each of them every step, in the hole 650,000 of a step's 1.3 M instructions
+// (callgrind). Internal to physics/.
 
 #include <BulletCollision/CollisionDispatch/btDefaultCollisionConfiguration.h>
 
@@ -15,8 +15,8 @@
 namespace iapsim::physics::internal {
 
 /// A box around a shape in the shape's frame S: Bullet's local bounds are aligned with S, which for a convex
-/// piece of a decomposed mesh (a wedge of the funnel, turned about its axis) is far looser than a box along the
-/// piece's own principal axes. A shape whose user pointer is a ShapeBox is culled with it.
+/// piece of a decomposed mesh (a wedge of the funnel, turned about its axis) is far looser than a box along
+/// the piece's own principal axes. A shape whose user pointer is a ShapeBox is culled with it.
 struct ShapeBox {
   Eigen::Vector3d center_S = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R_SB = Eigen::Matrix3d::Identity();
@@ -33,7 +33,7 @@ struct Bound {
   Kind kind = Kind::kBox;
   Eigen::Vector3d center_W = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R_WB = Eigen::Matrix3d::Identity();  // a cylinder's axis is the third column
-  Eigen::Vector3d half_m = Eigen::Vector3d::Zero();    // a box's half extents; a cylinder's (r, r, half length)
+  Eigen::Vector3d half_m = Eigen::Vector3d::Zero();  // a box's half extents; a cylinder's (r, r, half length)
 };
 
 /// Whether two bounds are further apart than `gap_m` along one of the separating axes tried: each box's face
@@ -46,7 +46,8 @@ class CollisionConfiguration final : public btDefaultCollisionConfiguration {
  public:
   CollisionConfiguration();
   ~CollisionConfiguration() override;
-  btCollisionAlgorithmCreateFunc* getCollisionAlgorithmCreateFunc(int proxy_type_0, int proxy_type_1) override;
+  btCollisionAlgorithmCreateFunc* getCollisionAlgorithmCreateFunc(int proxy_type_0,
+                                                                  int proxy_type_1) override;
 
  private:
   btCollisionAlgorithmCreateFunc* culled_convex_create_func_;

@@ -68,14 +68,14 @@ void MultibodyMass::Update(const btMultiBody& multibody) {
     // m_cachedRotParentToThis turns parent-frame vectors into this link's frame
     link.R_WL = parent.R_WL * Eig(btMatrix3x3(bullet.m_cachedRotParentToThis)).transpose();
     link.com_W = parent.com_W + link.R_WL * Eig(bullet.m_cachedRVector);  // parent CoM -> CoM, link frame
-    link.pivot_W = link.com_W - link.R_WL * Eig(bullet.m_dVector);         // pivot -> CoM, link frame
+    link.pivot_W = link.com_W - link.R_WL * Eig(bullet.m_dVector);        // pivot -> CoM, link frame
     link.mass = bullet.m_mass;
     link.inertia_L = Eig(bullet.m_inertiaLocal);
   }
 
-  // M = Σ_k J_kᵀ diag(I_k in W, m_k) J_k, J_k mapping the generalised velocities to link k's angular velocity ω_k
-  // and its CoM's velocity v_k, in 3-column blocks: the base's ω_0 (ω: I, v: −[c_k − c_0]×) and v_0 (ω: 0,
-  // v: I), and per spherical joint j on the way to the base its rates (ω: R_j, v: −[c_k − pivot_j]× R_j)
+  // M = Σ_k J_kᵀ diag(I_k in W, m_k) J_k, J_k mapping the generalised velocities to link k's angular velocity
+  // ω_k and its CoM's velocity v_k, in 3-column blocks: the base's ω_0 (ω: I, v: −[c_k − c_0]×) and v_0 (ω:
+  // 0, v: I), and per spherical joint j on the way to the base its rates (ω: R_j, v: −[c_k − pivot_j]× R_j)
   mass_.setZero();
   for (const Link& link : links_) {
     const Eigen::Matrix3d inertia_W = link.R_WL * link.inertia_L.asDiagonal() * link.R_WL.transpose();
@@ -139,7 +139,8 @@ void MultibodyMass::Response(int link, const double* jac, double* response) cons
 // M⁻¹ by Cholesky, M = L Lᵀ, and M⁻¹ = L⁻ᵀ L⁻¹, with L and U = L⁻ᵀ kept row by row so that every sum runs
 // along contiguous memory: Eigen's dynamic-size LLT and triangular solves spent 36,000 instructions a step on
 // the three-star's 15 x 15 (callgrind), blocked for large matrices.
-bool InvertSymmetricPositiveDefinite(const Eigen::MatrixXd& m, Eigen::MatrixXd* factor, Eigen::MatrixXd* inverse) {
+bool InvertSymmetricPositiveDefinite(const Eigen::MatrixXd& m, Eigen::MatrixXd* factor,
+                                     Eigen::MatrixXd* inverse) {
   const int n = static_cast<int>(m.rows());
   // row-major n x 2n scratch: L in the first n columns, U = L⁻ᵀ in the last n (both read along rows)
   factor->resize(2 * n, n);  // column-major (2n x n) storage read as row-major (n x 2n)
@@ -178,7 +179,8 @@ bool InvertSymmetricPositiveDefinite(const Eigen::MatrixXd& m, Eigen::MatrixXd* 
 btScalar ContactSolver::solveGroupCacheFriendlySetup(btCollisionObject** bodies, int num_bodies,
                                                      btPersistentManifold** manifolds, int num_manifolds,
                                                      btTypedConstraint** constraints, int num_constraints,
-                                                     const btContactSolverInfo& info, btIDebugDraw* debug_draw) {
+                                                     const btContactSolverInfo& info,
+                                                     btIDebugDraw* debug_draw) {
   ++solve_;
   const btScalar result = btMultiBodyConstraintSolver::solveGroupCacheFriendlySetup(
       bodies, num_bodies, manifolds, num_manifolds, constraints, num_constraints, info, debug_draw);
@@ -210,7 +212,8 @@ void ContactSolver::Start(btMultiBodySolverConstraint& row, btScalar impulse) {
     row.m_multiBodyA->applyDeltaVeeMultiDof2(unit_response, impulse);
   } else if (row.m_solverBodyIdA >= 0) {
     btSolverBody& body = m_tmpSolverBodyPool[row.m_solverBodyIdA];
-    body.internalApplyImpulse(row.m_contactNormal1 * body.internalGetInvMass(), row.m_angularComponentA, impulse);
+    body.internalApplyImpulse(row.m_contactNormal1 * body.internalGetInvMass(), row.m_angularComponentA,
+                              impulse);
   }
   if (row.m_multiBodyB) {
     btScalar* unit_response = &m_data.m_deltaVelocitiesUnitImpulse[row.m_jacBindex];
@@ -218,7 +221,8 @@ void ContactSolver::Start(btMultiBodySolverConstraint& row, btScalar impulse) {
     row.m_multiBodyB->applyDeltaVeeMultiDof2(unit_response, impulse);
   } else if (row.m_solverBodyIdB >= 0) {
     btSolverBody& body = m_tmpSolverBodyPool[row.m_solverBodyIdB];
-    body.internalApplyImpulse(row.m_contactNormal2 * body.internalGetInvMass(), row.m_angularComponentB, impulse);
+    body.internalApplyImpulse(row.m_contactNormal2 * body.internalGetInvMass(), row.m_angularComponentB,
+                              impulse);
   }
 }
 
@@ -232,7 +236,8 @@ void ContactSolver::convertContacts(btPersistentManifold** manifolds, int num_ma
     // most manifolds of a vehicle in the air (its boxes against the ground plane) have no point to solve
     bool solved = false;
     for (int p = 0; p < manifold->getNumContacts(); ++p) {
-      solved = solved || manifold->getContactPoint(p).getDistance() <= manifold->getContactProcessingThreshold();
+      solved =
+          solved || manifold->getContactPoint(p).getDistance() <= manifold->getContactProcessingThreshold();
     }
     if (!solved) {
       ResetUnsolved(*manifold);
@@ -262,11 +267,13 @@ bool ContactSolver::Factorable(const btPersistentManifold& manifold) {
   bool has_multibody = false;
   for (const btCollisionObject* object : {static_cast<const btCollisionObject*>(manifold.getBody0()),
                                           static_cast<const btCollisionObject*>(manifold.getBody1())}) {
-    if (object->hasAnisotropicFriction() || (object->getCollisionFlags() & btCollisionObject::CF_HAS_FRICTION_ANCHOR)) {
+    if (object->hasAnisotropicFriction() ||
+        (object->getCollisionFlags() & btCollisionObject::CF_HAS_FRICTION_ANCHOR)) {
       return false;
     }
     if (const auto* collider = btMultiBodyLinkCollider::upcast(object)) {
-      if (!MultibodyMass::Supports(*collider->m_multiBody) || !MassOf(collider->m_multiBody)->valid()) return false;
+      if (!MultibodyMass::Supports(*collider->m_multiBody) || !MassOf(collider->m_multiBody)->valid())
+        return false;
       has_multibody = true;
     } else if (!object->isStaticObject()) {
       return false;
@@ -305,8 +312,8 @@ ContactSolver::Side ContactSolver::SideOf(const btCollisionObject* object, doubl
   return side;
 }
 
-// Bullet's rows for each point within the processing threshold (convertMultiBodyContact): the normal, then its
-// two friction directions
+// Bullet's rows for each point within the processing threshold (convertMultiBodyContact): the normal, then
+// its two friction directions
 void ContactSolver::AddRows(btPersistentManifold& manifold, const btContactSolverInfo& info) {
   const Side a = SideOf(manifold.getBody0(), info.m_timeStep);
   const Side b = SideOf(manifold.getBody1(), info.m_timeStep);
@@ -318,8 +325,8 @@ void ContactSolver::AddRows(btPersistentManifold& manifold, const btContactSolve
     }
     const int normal_index = m_multiBodyNormalContactConstraints.size();
     const int friction_index = m_multiBodyFrictionContactConstraints.size();
-    AddRow(m_multiBodyNormalContactConstraints, a, b, point, point.m_normalWorldOnB, false, info).m_frictionIndex =
-        friction_index;
+    AddRow(m_multiBodyNormalContactConstraints, a, b, point, point.m_normalWorldOnB, false, info)
+        .m_frictionIndex = friction_index;
     btPlaneSpace1(point.m_normalWorldOnB, point.m_lateralFrictionDir1, point.m_lateralFrictionDir2);
     point.m_lateralFrictionDir1.normalize();
     point.m_lateralFrictionDir2.normalize();
@@ -331,9 +338,10 @@ void ContactSolver::AddRows(btPersistentManifold& manifold, const btContactSolve
 }
 
 // One row along `direction` (from B toward A), with the right-hand side of setupMultiBodyContactConstraint
-btMultiBodySolverConstraint& ContactSolver::AddRow(btMultiBodyConstraintArray& rows, const Side& a, const Side& b,
-                                                  btManifoldPoint& point, const btVector3& direction,
-                                                  bool friction, const btContactSolverInfo& info) {
+btMultiBodySolverConstraint& ContactSolver::AddRow(btMultiBodyConstraintArray& rows, const Side& a,
+                                                   const Side& b, btManifoldPoint& point,
+                                                   const btVector3& direction, bool friction,
+                                                   const btContactSolverInfo& info) {
   btMultiBodySolverConstraint& row = rows.expandNonInitializing();
   row = btMultiBodySolverConstraint();
   row.m_solverBodyIdA = a.solver_body;
@@ -353,8 +361,9 @@ btMultiBodySolverConstraint& ContactSolver::AddRow(btMultiBodyConstraintArray& r
       if (point.m_contactPointFlags & BT_CONTACT_FLAG_HAS_CONTACT_CFM) cfm = point.m_contactCFM;
       if (point.m_contactPointFlags & BT_CONTACT_FLAG_HAS_CONTACT_ERP) erp = point.m_contactERP;
     } else if (point.m_contactPointFlags & BT_CONTACT_FLAG_CONTACT_STIFFNESS_DAMPING) {
-      const double denominator = std::max(
-          info.m_timeStep * point.m_combinedContactStiffness1 + point.m_combinedContactDamping1, SIMD_EPSILON);
+      const double denominator =
+          std::max(info.m_timeStep * point.m_combinedContactStiffness1 + point.m_combinedContactDamping1,
+                   SIMD_EPSILON);
       cfm = 1.0 / denominator;
       erp = info.m_timeStep * point.m_combinedContactStiffness1 / denominator;
     }
@@ -388,8 +397,9 @@ btMultiBodySolverConstraint& ContactSolver::AddRow(btMultiBodyConstraintArray& r
   // speculative point) may close within the step and no further
   double velocity_error = -rel_vel, position_error = 0.0;
   if (!friction) {
-    velocity_error += std::max(0.0, static_cast<double>(restitutionCurve(rel_vel, point.m_combinedRestitution,
-                                                                         info.m_restitutionVelocityThreshold)));
+    velocity_error +=
+        std::max(0.0, static_cast<double>(restitutionCurve(rel_vel, point.m_combinedRestitution,
+                                                           info.m_restitutionVelocityThreshold)));
     const double distance = point.getDistance() + info.m_linearSlop;
     if (distance > 0.0) {
       velocity_error -= distance / info.m_timeStep;
@@ -410,16 +420,16 @@ btMultiBodySolverConstraint& ContactSolver::AddRow(btMultiBodyConstraintArray& r
   return row;
 }
 
-// a multibody's part of a row (`direction` from the other body toward this one): its Jacobian and unit response
-// in Bullet's arrays, the moment arm of the force it takes (Bullet's constraint-force bookkeeping), its velocity
-// along the row and its share of J M⁻¹ Jᵀ
+// a multibody's part of a row (`direction` from the other body toward this one): its Jacobian and unit
+// response in Bullet's arrays, the moment arm of the force it takes (Bullet's constraint-force bookkeeping),
+// its velocity along the row and its share of J M⁻¹ Jᵀ
 void ContactSolver::FillSide(const Side& side, bool is_a, const btVector3& p_W, const btVector3& direction,
                              btMultiBodySolverConstraint* row, double* rel_vel, double* denominator) {
   btMultiBody* multibody = side.multibody;
   int& jac_index = is_a ? row->m_jacAindex : row->m_jacBindex;
   int& velocity_index = is_a ? row->m_deltaVelAindex : row->m_deltaVelBindex;
-  const btVector3 com_W =
-      side.link < 0 ? multibody->getBasePos() : multibody->getLink(side.link).m_cachedWorldTransform.getOrigin();
+  const btVector3 com_W = side.link < 0 ? multibody->getBasePos()
+                                        : multibody->getLink(side.link).m_cachedWorldTransform.getOrigin();
   (is_a ? row->m_relpos1CrossNormal : row->m_relpos2CrossNormal) = (p_W - com_W).cross(direction);
 
   const int dofs = multibody->getNumDofs() + 6;

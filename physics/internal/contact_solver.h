@@ -1,28 +1,32 @@
 #pragma once
-// Bullet's multibody constraint solver (sequential impulses, projected Gauss-Seidel) with two changes that make
-// contact as cheap as Bullet's iterations allow. Internal to physics/: it exposes Bullet types.
+// Bullet's multibody constraint solver (sequential impulses, projected Gauss-Seidel) with two changes that
+// make contact as cheap as Bullet's iterations allow. Internal to physics/: it exposes Bullet types.
 //
-// 1. Warm starting: every contact row (normal and both friction directions) and every latch row starts from the
+// 1. Warm starting: every contact row (normal and both friction directions) and every latch row starts from
+// the
 //    impulse it ended the last step with, applied to the bodies before the iterations, as Catto's sequential
 //    impulses do (GDC 2006, "Fast and Simple Physics using Sequential Impulses"), so a resting or steadily
 //    sliding contact starts at its solution. Bullet's own SOLVER_USE_ARTICULATED_WARMSTARTING (3.24) is not
 //    used: it starts friction from zero (a pole leaning in the funnel's hole took 34 iterations a step on
-//    average with it, 6 with this, 48 cold) and applies a latch row's warm impulse to a multibody but not to a
-//    rigid body on its other side, which spun a latched rod-and-crate pair up from 0.7 to 12 rad/s (measured).
+//    average with it, 6 with this, 48 cold) and applies a latch row's warm impulse to a multibody but not to
+//    a rigid body on its other side, which spun a latched rod-and-crate pair up from 0.7 to 12 rad/s
+//    (measured).
 //
-// 2. Contact rows of multibodies built from one factorisation of each multibody's mass matrix per step. Bullet
+// 2. Contact rows of multibodies built from one factorisation of each multibody's mass matrix per step.
+// Bullet
 //    builds each row (a contact point's normal and two friction directions: 36 rows for an IAP standing on
 //    its three boxes) with its own articulated-body pass for M⁻¹Jᵀ and its own Jacobian walk: 68 % of the
 //    resting IAP's step (callgrind). MultibodyMass instead assembles M = Σ_k J_kᵀ M_k J_k from the links'
-//    spatial Jacobians, factors it once (Cholesky), and gives each row its Jacobian in closed form and M⁻¹Jᵀ by
-//    two triangular solves. The rows are Bullet's (btMultiBodySolverConstraint, solved by Bullet's iterations)
-//    with Bullet's right-hand sides (error reduction, speculative distance, restitution, stiffness/damping);
-//    contact_solver_test checks the Jacobians and responses against Bullet's fillContactJacobianMultiDof and
-//    calcAccelerationDeltasMultiDof, and a stepped scene against Bullet's own rows. Multibodies with joints
-//    other than spherical and fixed, movable rigid bodies and rolling or spinning friction keep Bullet's rows.
+//    spatial Jacobians, factors it once (Cholesky), and gives each row its Jacobian in closed form and M⁻¹Jᵀ
+//    by two triangular solves. The rows are Bullet's (btMultiBodySolverConstraint, solved by Bullet's
+//    iterations) with Bullet's right-hand sides (error reduction, speculative distance, restitution,
+//    stiffness/damping); contact_solver_test checks the Jacobians and responses against Bullet's
+//    fillContactJacobianMultiDof and calcAccelerationDeltasMultiDof, and a stepped scene against Bullet's own
+//    rows. Multibodies with joints other than spherical and fixed, movable rigid bodies and rolling or
+//    spinning friction keep Bullet's rows.
 
-#include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletCollision/NarrowPhaseCollision/btManifoldPoint.h>
+#include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 
 #include <Eigen/Core>
@@ -84,7 +88,8 @@ class MultibodyMass {
 
 /// M⁻¹ of a symmetric positive definite M by Cholesky (`factor`: scratch). False when M is not positive
 /// definite.
-bool InvertSymmetricPositiveDefinite(const Eigen::MatrixXd& m, Eigen::MatrixXd* factor, Eigen::MatrixXd* inverse);
+bool InvertSymmetricPositiveDefinite(const Eigen::MatrixXd& m, Eigen::MatrixXd* factor,
+                                     Eigen::MatrixXd* inverse);
 
 class ContactSolver final : public btMultiBodyConstraintSolver {
  public:
@@ -92,12 +97,14 @@ class ContactSolver final : public btMultiBodyConstraintSolver {
   /// false: every row through Bullet's own setup (for comparison).
   void set_factored_rows(bool factored_rows) { factored_rows_ = factored_rows; }
 
-  btScalar solveGroupCacheFriendlySetup(btCollisionObject** bodies, int num_bodies, btPersistentManifold** manifolds,
-                                        int num_manifolds, btTypedConstraint** constraints, int num_constraints,
+  btScalar solveGroupCacheFriendlySetup(btCollisionObject** bodies, int num_bodies,
+                                        btPersistentManifold** manifolds, int num_manifolds,
+                                        btTypedConstraint** constraints, int num_constraints,
                                         const btContactSolverInfo& info, btIDebugDraw* debug_draw) override;
 
  protected:
-  void convertContacts(btPersistentManifold** manifolds, int num_manifolds, const btContactSolverInfo& info) override;
+  void convertContacts(btPersistentManifold** manifolds, int num_manifolds,
+                       const btContactSolverInfo& info) override;
 
  private:
   struct Side {

@@ -144,7 +144,8 @@ TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeter
         const uint64_t expected = published || !from_clock
                                       ? in_bag[topic]
                                       : metrics["processes"][process]["process"]["steps"].get<uint64_t>();
-        EXPECT_EQ(counters[published ? "sent" : "received"].get<uint64_t>(), expected) << process << " " << topic;
+        EXPECT_EQ(counters[published ? "sent" : "received"].get<uint64_t>(), expected)
+            << process << " " << topic;
         EXPECT_EQ(counters["dropped"].get<uint64_t>(), 0u) << process << " " << topic;
         EXPECT_EQ(counters["lost"].get<uint64_t>(), 0u) << process << " " << topic;
       }
