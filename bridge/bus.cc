@@ -453,7 +453,7 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
     }
     if (impl.shm_subscriber && announce) impl.shm_subscriber->WakeUp();
     // a socket's news (a subscriber, a bigger queue, a hang-up) is taken at once; after a timeout, as
-    // often as ever (a polling subscriber wakes a thousand times a second)
+    // often as ever (a polling subscriber wakes hundreds of times a second)
     impl.Maintain(/*now=*/event);
   }
   return impl.DrainQueued(stats_, max_batch);
