@@ -4,6 +4,7 @@
 #include <map>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 namespace iapsim::bridge {
 namespace {
@@ -110,66 +111,70 @@ LeafValue ReadLeaf(FieldKind kind, const uint8_t* p) {
   }
 }
 
-// One walk does both validation (visitor == nullptr) and visiting.
+// One walk does both validation (visitor == nullptr) and visiting. Validation, which every received and
+// every decoded message goes through, builds no strings: the path to a field is a stack of references,
+// spelled out only for an error (or for a visitor).
 class Walker {
  public:
   Walker(const uint8_t* data, size_t size, FieldVisitor* visitor) : cursor_(data, size), visitor_(visitor) {}
 
-  bool WalkMessage(const MessageSchema& schema, const std::string& path, int depth) {
-    if (depth > kMaxDepth) return Fail(path, "nesting deeper than " + std::to_string(kMaxDepth));
-    if (visitor_) visitor_->BeginMessage(path, schema);
+  bool WalkMessage(const MessageSchema& schema, int depth) {
+    if (depth > kMaxDepth) return Fail("nesting deeper than " + std::to_string(kMaxDepth));
+    if (visitor_) visitor_->BeginMessage(Path(), schema);
     for (const auto& field : schema.fields) {
-      const std::string field_path = path.empty() ? field.name : path + "." + field.name;
-      if (!WalkField(field, field_path, depth)) return false;
+      path_.push_back(Segment{&field.name, 0});
+      if (!WalkField(field, depth)) return false;
+      path_.pop_back();
     }
     return true;
   }
 
-  bool WalkField(const FieldSchema& field, const std::string& path, int depth) {
-    if (field.array_size < 0) return WalkElement(field, path, field.name, depth);
+  bool WalkField(const FieldSchema& field, int depth) {
+    if (field.array_size < 0) return WalkElement(field, depth);
     size_t count = static_cast<size_t>(field.array_size);
     if (field.array_size == 0) {
       uint32_t n;
-      if (!cursor_.ReadU32(&n)) return Fail(path, "truncated array length");
+      if (!cursor_.ReadU32(&n)) return Fail("truncated array length");
       count = n;
     }
     const size_t element_size = PrimitiveSize(field.kind);
     // every element takes at least one byte except empty messages, so a count beyond the bytes left is
     // corrupt
     if (element_size > 0 && count > cursor_.remaining() / element_size) {
-      return Fail(path, "array of " + std::to_string(count) + " elements does not fit in " +
-                            std::to_string(cursor_.remaining()) + " remaining bytes");
+      return Fail("array of " + std::to_string(count) + " elements does not fit in " +
+                  std::to_string(cursor_.remaining()) + " remaining bytes");
     }
     if (field.kind == FieldKind::kUint8 || field.kind == FieldKind::kInt8) {
       const uint8_t* p;
-      if (!cursor_.Take(count, &p)) return Fail(path, "truncated byte array");
-      if (visitor_) visitor_->Bytes(path, field.name, p, count);
+      if (!cursor_.Take(count, &p)) return Fail("truncated byte array");
+      if (visitor_) visitor_->Bytes(Path(), field.name, p, count);
       return true;
     }
     if (element_size == 0 && count > cursor_.remaining() && !MayBeEmpty(field)) {
-      return Fail(path, "array of " + std::to_string(count) + " elements exceeds the remaining bytes");
+      return Fail("array of " + std::to_string(count) + " elements exceeds the remaining bytes");
     }
-    if (visitor_) visitor_->BeginArray(path, count);
+    if (visitor_) visitor_->BeginArray(Path(), count);
     for (size_t i = 0; i < count; ++i) {
-      const std::string index = "[" + std::to_string(i) + "]";
-      if (!WalkElement(field, path + index, field.name + index, depth + 1)) return false;
+      path_.push_back(Segment{nullptr, i});
+      if (!WalkElement(field, depth + 1)) return false;
+      path_.pop_back();
     }
     return true;
   }
 
-  bool WalkElement(const FieldSchema& field, const std::string& path, const std::string& name, int depth) {
-    if (field.kind == FieldKind::kMessage) return WalkMessage(*field.nested, path, depth + 1);
+  bool WalkElement(const FieldSchema& field, int depth) {
+    if (field.kind == FieldKind::kMessage) return WalkMessage(*field.nested, depth + 1);
     if (field.kind == FieldKind::kString) {
       uint32_t n;
-      if (!cursor_.ReadU32(&n)) return Fail(path, "truncated string length");
+      if (!cursor_.ReadU32(&n)) return Fail("truncated string length");
       const uint8_t* p;
-      if (!cursor_.Take(n, &p)) return Fail(path, "string of " + std::to_string(n) + " bytes is truncated");
-      if (visitor_) visitor_->Leaf(path, name, LeafValue(std::string(reinterpret_cast<const char*>(p), n)));
+      if (!cursor_.Take(n, &p)) return Fail("string of " + std::to_string(n) + " bytes is truncated");
+      if (visitor_) Visit(field, LeafValue(std::string(reinterpret_cast<const char*>(p), n)));
       return true;
     }
     const uint8_t* p;
-    if (!cursor_.Take(PrimitiveSize(field.kind), &p)) return Fail(path, "truncated value");
-    if (visitor_) visitor_->Leaf(path, name, ReadLeaf(field.kind, p));
+    if (!cursor_.Take(PrimitiveSize(field.kind), &p)) return Fail("truncated value");
+    if (visitor_) Visit(field, ReadLeaf(field.kind, p));
     return true;
   }
 
@@ -188,16 +193,43 @@ class Walker {
  private:
   static constexpr int kMaxDepth = 64;
 
+  struct Segment {
+    const std::string* field;  // nullptr: an array index
+    size_t index;
+  };
+
   static bool MayBeEmpty(const FieldSchema& field) {
     return field.kind == FieldKind::kMessage && field.nested->fields.empty();
   }
 
-  bool Fail(const std::string& path, const std::string& what) {
+  // "pose.position.x", "bodies[2].name"
+  std::string Path() const {
+    std::string path;
+    for (const Segment& segment : path_) {
+      if (segment.field) {
+        if (!path.empty()) path += '.';
+        path += *segment.field;
+      } else {
+        path += "[" + std::to_string(segment.index) + "]";
+      }
+    }
+    return path;
+  }
+
+  // a leaf's name is its field's, with the index when it is an array element: "data[3]"
+  void Visit(const FieldSchema& field, const LeafValue& value) {
+    const Segment& last = path_.back();
+    const std::string name = last.field ? field.name : field.name + "[" + std::to_string(last.index) + "]";
+    visitor_->Leaf(Path(), name, value);
+  }
+
+  bool Fail(const std::string& what) {
     if (error_.empty())
-      error_ = "at byte " + std::to_string(cursor_.pos()) + ", field '" + path + "': " + what;
+      error_ = "at byte " + std::to_string(cursor_.pos()) + ", field '" + Path() + "': " + what;
     return false;
   }
 
+  std::vector<Segment> path_;
   Cursor cursor_;
   FieldVisitor* visitor_;
   std::string error_;
@@ -308,13 +340,13 @@ std::shared_ptr<const SchemaSet> SchemaSet::Parse(const std::string& datatype,
 
 bool SchemaSet::Validate(const uint8_t* data, size_t size, std::string* error) const {
   Walker walker(data, size, nullptr);
-  walker.WalkMessage(*root_, "", 0);
+  walker.WalkMessage(*root_, 0);
   return walker.Finish(error);
 }
 
 void SchemaSet::Walk(const uint8_t* data, size_t size, FieldVisitor& visitor) const {
   Walker walker(data, size, &visitor);
-  walker.WalkMessage(*root_, "", 0);
+  walker.WalkMessage(*root_, 0);
   std::string error;
   if (!walker.Finish(&error)) throw std::invalid_argument(root_->datatype + ": " + error);
 }
