@@ -1,6 +1,6 @@
 #pragma once
-// ROS1 .bag files of raw (already serialized) messages. The writer is the project's own (bag_writer.cc says
-// why); the reader is librosbag_storage's, behind this interface.
+// ROS1 .bag files of raw (already serialized) messages. The writer and the reader are the project's own
+// (bag_writer.cc and bag.cc say why); bag_test.cc checks both against librosbag_storage.
 
 #include <cstdint>
 #include <functional>

@@ -36,35 +36,22 @@
 #include <unordered_map>
 
 #include "bridge/bag.h"
+#include "bridge/internal/bag_format.h"
 
 namespace iapsim::bridge {
 namespace {
 
-static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "bag records are little-endian, written by memcpy");
+using namespace bag_format;  // NOLINT: the format's constants, used throughout
 
 using Clock = std::chrono::steady_clock;
 
-constexpr char kVersionLine[] = "#ROSBAG V2.0\n";
 constexpr uint32_t kBagHeaderBytes = 4096;  // header fields plus padding
-constexpr uint8_t kOpMessageData = 0x02;
-constexpr uint8_t kOpBagHeader = 0x03;
-constexpr uint8_t kOpIndexData = 0x04;
-constexpr uint8_t kOpChunk = 0x05;
-constexpr uint8_t kOpChunkInfo = 0x06;
-constexpr uint8_t kOpConnection = 0x07;
-constexpr uint32_t kIndexVersion = 1;
-constexpr uint32_t kChunkInfoVersion = 1;
 // roslz4's frame with 1 MiB blocks, as rosbag's writer uses: the same blocks, so the same compressed bytes
 constexpr int kLz4BlockSizeId = 6;
 constexpr size_t kLz4BlockBytes = size_t{1} << 20;
 // a chunk's size is a u32: with at most 1 GiB of records before a message of at most 2 GiB, it always fits
 constexpr size_t kMaxChunkThresholdBytes = size_t{1} << 30;
 constexpr size_t kMaxMessageBytes = size_t{1} << 31;
-constexpr int64_t kMaxTimeNs = int64_t{std::numeric_limits<uint32_t>::max()} * 1000000000 + 999999999;
-
-BagError ErrorFor(const std::string& path, const std::string& what) {
-  return BagError("bag '" + path + "': " + what);
-}
 
 // a bag's times are u32 seconds and u32 nanoseconds
 struct BagTime {

@@ -32,6 +32,7 @@ iapsim_find_library(CONSOLE_BRIDGE_LIB console_bridge)
 iapsim_find_library(MUJOCO_LIB mujoco)
 find_path(MUJOCO_INCLUDE_DIR mujoco/mujoco.h REQUIRED)
 find_package(Boost REQUIRED COMPONENTS filesystem system)
+find_package(BZip2 REQUIRED)
 
 add_library(iapsim_ros_serialization INTERFACE)
 target_link_libraries(iapsim_ros_serialization INTERFACE ${ROS_SERIALIZATION_LIB} ${ROS_TIME_LIB}

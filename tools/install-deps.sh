@@ -10,7 +10,7 @@ packages=(
   # core libraries
   libeigen3-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
   # bus: ZeroMQ + ROS1 wire format, bag files, message definitions for gencpp
-  libzmq3-dev cppzmq-dev librosbag-storage-dev pluginlib-dev libclass-loader-dev librcpputils-dev librcutils-dev
+  libzmq3-dev cppzmq-dev librosbag-storage-dev libbz2-dev pluginlib-dev libclass-loader-dev librcpputils-dev librcutils-dev
   libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev
   ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-nav-msgs ros-rosgraph-msgs
   python3-genmsg python3-gencpp python3-rosbag python3-yaml python3-numpy python3-matplotlib
