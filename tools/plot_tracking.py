@@ -21,9 +21,13 @@ def main():
         sys.exit(__doc__)
     csv_path, out_dir = sys.argv[1], sys.argv[2]
     title = sys.argv[3] if len(sys.argv) == 4 else os.path.basename(out_dir)
-    data = np.genfromtxt(csv_path, delimiter=",", names=True)
-    if data.size < 2:
+    # loadtxt parses in C (numpy >= 1.23); genfromtxt took 0.1-0.3 s a file
+    with open(csv_path) as f:
+        names = f.readline().strip().split(",")
+    values = np.loadtxt(csv_path, delimiter=",", skiprows=1, ndmin=2)
+    if values.shape[0] < 2:
         sys.exit(f"{csv_path}: fewer than two samples")
+    data = np.rec.fromarrays(values.T, names=names)
     t = data["t_s"]
 
     def series(name, unit, ref):
