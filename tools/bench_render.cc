@@ -25,7 +25,7 @@
 #include "render/camera_system.h"
 #include "render/scene_config.h"
 #include "render/vehicle_visual.h"
-#include "tools/commands.h"
+#include "tools/media.h"
 
 namespace iapsim::tools {
 namespace {
@@ -163,7 +163,7 @@ void PrintFigure(const std::string& label, const Figure& f) {
 
 }  // namespace
 
-int BenchRender(const std::string& scene_path, const std::string& vehicle_path, nlohmann::json* report) {
+int MeasureRendering(const std::string& scene_path, const std::string& vehicle_path, nlohmann::json* report) {
   render::Scene scene = render::LoadScene(scene_path);
   const model::Vehicle vehicle = model::LoadVehicle(vehicle_path);
   render::AddVehicle(&scene, vehicle, "iap");
