@@ -18,6 +18,12 @@
 namespace iapsim::tools {
 namespace {
 
+std::string Ratio(double ratio) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.2fx", ratio);
+  return text;
+}
+
 constexpr double kSecondsPerFigure = 1.0;
 
 // The vehicle with n copies of its first sub-aircraft on a circle wide enough that their boxes never touch.
@@ -110,12 +116,16 @@ void BenchContact(const model::Vehicle& vehicle, double air_steps_per_s, nlohman
   };
   std::printf("\ncontact: %s on its boxes on the ground, 1 ms steps (rotors idle, flight controllers on)\n",
               vehicle.name.c_str());
-  std::printf("  %-44s %10s %8s %11s %13s %12s\n", "", "steps/s", "x before", "contact us", "penetration m",
+  // "us - air": a step's cost beyond a step in the air; negative asleep, where the dynamics are skipped too
+  std::printf("  %-44s %10s %8s %11s %13s %12s\n", "", "steps/s", "x before", "us - air", "penetration m",
               "weight err N");
   double before_steps_per_s = 0.0;
+  std::vector<std::pair<std::string, double>> ours;  // the last two rows: awake and the default
   for (const Row& row : rows) {
     const ContactFigures f = MeasureResting(vehicle, row.world);
     if (before_steps_per_s == 0.0) before_steps_per_s = f.steps_per_s;
+    if (&row >= &rows[rows.size() - 2])
+      ours.emplace_back(&row == &rows.back() ? "default" : "awake", f.steps_per_s);
     const double contact_us = 1e6 / f.steps_per_s - 1e6 / air_steps_per_s;
     std::printf("  %-44s %10.0f %8.2f %11.1f %13.2e %12.2e\n", row.name.c_str(), f.steps_per_s,
                 f.steps_per_s / before_steps_per_s, contact_us, f.max_penetration_m, f.weight_error_N);
@@ -126,6 +136,7 @@ void BenchContact(const model::Vehicle& vehicle, double air_steps_per_s, nlohman
                                               {"max_penetration_m", f.max_penetration_m},
                                               {"weight_error_N", f.weight_error_N}});
   }
+  std::vector<std::string> theirs;  // iapsim's steps/s over MuJoCo's, same scene, same run
   for (const std::string solver : {"Newton", "CG"}) {
     const MujocoFigures f = MeasureMujocoResting(vehicle, solver, kSecondsPerFigure);
     const std::string name = "MuJoCo " + f.version + " " + solver + " (no rotors, no controllers)";
@@ -138,8 +149,14 @@ void BenchContact(const model::Vehicle& vehicle, double air_steps_per_s, nlohman
                                               {"max_penetration_m", f.max_penetration_m},
                                               {"weight_error_N", f.weight_error_N},
                                               {"solver_iterations", f.solver_iterations}});
+    for (const auto& [configuration, steps_per_s] : ours) {
+      theirs.push_back("iapsim " + configuration + " / MuJoCo " + solver + " " +
+                       Ratio(steps_per_s / f.steps_per_s));
+      (*report)["contact"]["vs_mujoco"][configuration][solver] = steps_per_s / f.steps_per_s;
+    }
   }
   std::printf("  %-44s %10.0f\n", "iapsim in the air (no contact)", air_steps_per_s);
+  for (const std::string& line : theirs) std::printf("  %s\n", line.c_str());
 }
 
 }  // namespace
@@ -154,7 +171,8 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
   const double ground = Measure(three_star, true, awake);
   const double asleep = Measure(three_star, true);
   const double bare = physics::MeasureBareMultibodyStepsPerSecond(three_star, n_star, kSecondsPerFigure);
-  std::printf("  %-38s %10.0f  (%.2f of bare Bullet)\n", (three_star.name + ", in the air").c_str(), air, air / bare);
+  std::printf("  %-38s %10.0f  (%.2f of bare Bullet)\n", (three_star.name + ", in the air").c_str(), air,
+              air / bare);
   std::printf("  %-38s %10.0f  (%.2f of bare Bullet, %.2f of in the air)\n",
               (three_star.name + ", resting on the ground").c_str(), ground, ground / bare, ground / air);
   std::printf("  %-38s %10.0f  (%.2f of in the air)\n", (three_star.name + ", ... asleep (default)").c_str(),
@@ -167,7 +185,8 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
   (*report)["physics"]["bare_steps_per_s"] = bare;
   BenchContact(three_star, air, &(*report)["physics"]);
 
-  std::printf("\n  %3s %12s %8s %12s %12s %14s\n", "n", "in the air", "vs bare", "on ground", "bare", "us/step (air)");
+  std::printf("\n  %3s %12s %8s %12s %12s %14s\n", "n", "in the air", "vs bare", "on ground", "bare",
+              "us/step (air)");
   std::printf("  %3s %12s %8s %12s\n", "", "", "", "(awake)");
   double first_us = 0.0;
   for (const int n : {2, 3, 4, 6, 8}) {
@@ -178,8 +197,8 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
     const double us = 1e6 / a;
     if (first_us == 0.0) first_us = us;
     std::printf("  %3d %12.0f %8.2f %12.0f %12.0f %9.1f (x%.2f)\n", n, a, a / b, g, b, us, us / first_us);
-    nlohmann::json row{{"sub_aircraft", n}, {"air_steps_per_s", a}, {"ground_steps_per_s", g},
-                       {"bare_steps_per_s", b}};
+    nlohmann::json row{
+        {"sub_aircraft", n}, {"air_steps_per_s", a}, {"ground_steps_per_s", g}, {"bare_steps_per_s", b}};
     (*report)["physics"]["by_sub_aircraft"].push_back(row);
   }
   return 0;
