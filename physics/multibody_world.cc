@@ -14,21 +14,16 @@
 #include <stdexcept>
 
 #include "model/mesh.h"
+#include "physics/internal/bullet_eigen.h"
 #include "physics/internal/collision_configuration.h"
 #include "physics/internal/contact_solver.h"
 
 namespace iapsim::physics {
 namespace {
 
-static_assert(sizeof(btScalar) == sizeof(double), "iapsim needs Bullet's double-precision build");
-
-btVector3 Bt(const Eigen::Vector3d& v) { return btVector3(v.x(), v.y(), v.z()); }
-btQuaternion Bt(const Eigen::Quaterniond& q) { return btQuaternion(q.x(), q.y(), q.z(), q.w()); }
-Eigen::Vector3d Eig(const btVector3& v) { return Eigen::Vector3d(v.x(), v.y(), v.z()); }
-Eigen::Quaterniond Eig(const btQuaternion& q) { return Eigen::Quaterniond(q.w(), q.x(), q.y(), q.z()); }
-btMatrix3x3 BtMatrix(const Eigen::Matrix3d& R) {
-  return btMatrix3x3(R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2));
-}
+using internal::Bt;
+using internal::BtMatrix;
+using internal::Eig;
 
 // Bullet grows a cone outward by its collision margin (0.04 m by default, the size of a docking cone)
 constexpr double kConeMargin_m = 0.001;
@@ -83,10 +78,10 @@ PrincipalFrame PrincipalFrameOf(const model::MassProperties& mass) {
 struct MultibodyWorld::Impl {
   struct Body {
     std::string name;
-    btMultiBody* multibody = nullptr;  // a multibody link, or
-    btRigidBody* rigid = nullptr;      // a world object
-    int link = -1;         // multibody: -1 for the base
-    int parent_body = -2;  // multibody links: the joint's parent body
+    btMultiBody* multibody = nullptr;                        // a multibody link, or
+    btRigidBody* rigid = nullptr;                            // a world object
+    int link = -1;                                           // multibody: -1 for the base
+    int parent_body = -2;                                    // multibody links: the joint's parent body
     Eigen::Isometry3d X_CB = Eigen::Isometry3d::Identity();  // B in Bullet's frame C
     double mass_kg = 0.0;
     Eigen::Matrix3d inertia_B_kgm2 = Eigen::Matrix3d::Zero();
@@ -379,7 +374,8 @@ struct MultibodyWorld::Impl {
                   object.mass_kg > 0.0 ? model::BodyMotion::kMoving : model::BodyMotion::kStatic,
                   "object '" + object.name + "'");
     btVector3 inertia = Bt(object.inertia_kgm2);
-    if (object.mass_kg > 0.0 && object.inertia_kgm2.isZero()) shape->calculateLocalInertia(object.mass_kg, inertia);
+    if (object.mass_kg > 0.0 && object.inertia_kgm2.isZero())
+      shape->calculateLocalInertia(object.mass_kg, inertia);
     btTransform pose;
     pose.setOrigin(Bt(object.p_WO_m));
     pose.setRotation(Bt(object.q_WO.normalized()));
@@ -451,8 +447,8 @@ struct MultibodyWorld::Impl {
       const btRigidBody* rigid = bodies[i].rigid;
       if (!rigid) continue;
       const btTransform& X = rigid->getCenterOfMassTransform();
-      UpdateBody(static_cast<int>(i), Eig(X.getRotation()), Eig(X.getOrigin()), Eig(rigid->getAngularVelocity()),
-                 Eig(rigid->getLinearVelocity()), first);
+      UpdateBody(static_cast<int>(i), Eig(X.getRotation()), Eig(X.getOrigin()),
+                 Eig(rigid->getAngularVelocity()), Eig(rigid->getLinearVelocity()), first);
     }
   }
 
@@ -621,7 +617,8 @@ int MultibodyWorld::AddMultibody(const std::string& name, const model::Multibody
   Impl& impl = *impl_;
   const int links = static_cast<int>(description.links.size());
   if (links < 1 || description.joints.size() + 1 != description.links.size()) {
-    throw std::invalid_argument(description.name + ": a multibody is a tree: one joint per link but the root");
+    throw std::invalid_argument(description.name +
+                                ": a multibody is a tree: one joint per link but the root");
   }
   std::vector<PrincipalFrame> frames;
   for (const auto& link : description.links) frames.push_back(PrincipalFrameOf(link.mass));
@@ -650,7 +647,8 @@ int MultibodyWorld::AddMultibody(const std::string& name, const model::Multibody
     const Eigen::Matrix3d R_PpCc = model::RotationFromRpy(joint.rpy_parent_rad);
     // rotates vectors from the parent's principal frame into the child's, at the zero joint position
     const Eigen::Matrix3d R_parent_to_child = (R_PpC.transpose() * R_PpCc * R_CcC).transpose();
-    const Eigen::Vector3d parent_com_to_pivot = R_PpC.transpose() * (joint.origin_parent_m - parent.X_BC.translation());
+    const Eigen::Vector3d parent_com_to_pivot =
+        R_PpC.transpose() * (joint.origin_parent_m - parent.X_BC.translation());
     const Eigen::Vector3d pivot_to_child_com = R_CcC.transpose() * child.X_BC.translation();
     const double mass = description.links[joint.child].mass.mass_kg;
     const int parent_link = bullet_link[joint.parent];
@@ -740,7 +738,9 @@ int MultibodyWorld::FindBody(const std::string& name) const {
 }
 
 double MultibodyWorld::mass_kg(int body) const { return impl_->bodies.at(body).mass_kg; }
-Eigen::Matrix3d MultibodyWorld::inertia_B_kgm2(int body) const { return impl_->bodies.at(body).inertia_B_kgm2; }
+Eigen::Matrix3d MultibodyWorld::inertia_B_kgm2(int body) const {
+  return impl_->bodies.at(body).inertia_B_kgm2;
+}
 
 void MultibodyWorld::AddForce_W(int body, const Eigen::Vector3d& force_W_N) {
   Impl::Load load;
@@ -844,7 +844,7 @@ bool MultibodyWorld::latched(int latch) const { return impl_->latches.at(latch).
 void MultibodyWorld::Step() {
   Impl& impl = *impl_;
   impl.WakeOnChangedLoads();
-  impl.world.stepSimulation(impl.step_s, 0);  // exactly one step of step_s (no accumulator)
+  impl.world.stepSimulation(impl.step_s, 0);                   // exactly one step of step_s (no accumulator)
   for (auto& rigid : impl.rigid_bodies) rigid->clearForces();  // multibodies clear theirs in the step
   ++impl.step_count;
   impl.UpdateStates(false);

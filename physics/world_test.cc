@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 
 #include "model/urdf.h"
 #include "model/vehicle.h"
@@ -27,7 +28,8 @@ VehicleSpec Spec(const std::string& name, const Eigen::Vector3d& p_WP_m, double 
 }
 
 TEST(MultibodyWorld, BodiesStartWhereTheVehicleDescriptionPutsThem) {
-  for (const std::string name : {"three_star", "three_square", "two_line", "three_line", "three_star_fixed"}) {
+  for (const std::string name :
+       {"three_star", "three_square", "two_line", "three_line", "three_star_fixed"}) {
     SCOPED_TRACE(name);
     SimulationConfig config;
     config.world.ground = false;
@@ -98,14 +100,17 @@ TEST(MultibodyWorld, FreeFloatingIapConservesMomentumAndKeepsItsJoints) {
     sim.Step();
     const BodyState& platform = world.body(out.platform_body);
     for (size_t i = 0; i < 3; ++i) {
-      const Eigen::Vector3d expected = platform.p_WB_m + platform.q_WB * sim.vehicle(0).vehicle.sub_aircraft[i].joint_P_m;
-      joint_drift_m = std::max(joint_drift_m, (world.body(out.sub_aircraft_bodies[i]).p_WB_m - expected).norm());
+      const Eigen::Vector3d expected =
+          platform.p_WB_m + platform.q_WB * sim.vehicle(0).vehicle.sub_aircraft[i].joint_P_m;
+      joint_drift_m =
+          std::max(joint_drift_m, (world.body(out.sub_aircraft_bodies[i]).p_WB_m - expected).norm());
     }
   }
   momenta(&p1, &L1, &E1);
-  std::printf("free-floating three-star, 5 s: |dp| %.2e kg m/s, |dL| %.2e (of %.3f) kg m^2/s, dE/E %.2e, "
-              "joint drift %.2e m\n",
-              (p1 - p0).norm(), (L1 - L0).norm(), L0.norm(), std::abs(E1 - E0) / E0, joint_drift_m);
+  std::printf(
+      "free-floating three-star, 5 s: |dp| %.2e kg m/s, |dL| %.2e (of %.3f) kg m^2/s, dE/E %.2e, "
+      "joint drift %.2e m\n",
+      (p1 - p0).norm(), (L1 - L0).norm(), L0.norm(), std::abs(E1 - E0) / E0, joint_drift_m);
   // Bullet integrates joint coordinates (semi-implicit Euler), so momentum holds to O(step), not exactly
   EXPECT_LT((p1 - p0).norm() / sim.vehicle(0).vehicle.TotalMass_kg(), 1e-5);
   EXPECT_LT((L1 - L0).norm(), 1e-3 * L0.norm());
@@ -114,7 +119,7 @@ TEST(MultibodyWorld, FreeFloatingIapConservesMomentumAndKeepsItsJoints) {
 }
 
 WorldObject Box(const std::string& name, const Eigen::Vector3d& size_m, const Eigen::Vector3d& p_WO_m,
-               double mass_kg = 0.0) {
+                double mass_kg = 0.0) {
   WorldObject object;
   object.name = name;
   model::Shape shape;
@@ -123,6 +128,18 @@ WorldObject Box(const std::string& name, const Eigen::Vector3d& size_m, const Ei
   object.p_WO_m = p_WO_m;
   object.mass_kg = mass_kg;
   return object;
+}
+
+// The three-star with P at p_WP_m, its rotors idle and commanded to give nothing: it falls, or rests on
+// its sub-aircraft's boxes.
+std::unique_ptr<Simulation> UnpoweredThreeStar(SimulationConfig config, const Eigen::Vector3d& p_WP_m) {
+  config.vehicles.push_back(Spec("three_star", p_WP_m));
+  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+  auto sim = std::make_unique<Simulation>(config);
+  SubAircraftSetpoint off;
+  off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  for (int s = 0; s < 3; ++s) sim->SetCommand(0, s, off);
+  return sim;
 }
 
 TEST(MultibodyWorld, ABoxAtRestReadsItsWeightAndFrictionOpposesSliding) {
@@ -158,12 +175,8 @@ TEST(Simulation, AnIapRestingOnABoxReadsItsWeightAsExternalWrench) {
   // static, top at z = −0.5
   config.world.objects = {Box("stand", Eigen::Vector3d(0.3, 0.3, 0.5), Eigen::Vector3d(0.0, 0.0, -0.25))};
   // platform box 0.05 m tall: its bottom on the stand's top
-  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -0.5 - 0.025 - 0.002)));
-  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
-  Simulation sim(config);
-  SubAircraftSetpoint off;
-  off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
-  for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, off);
+  auto unpowered = UnpoweredThreeStar(config, Eigen::Vector3d(0.0, 0.0, -0.5 - 0.025 - 0.002));
+  Simulation& sim = *unpowered;
   for (int k = 0; k < 3000; ++k) sim.Step();
   const VehicleOutput& out = sim.output(0);
   const double weight_N = sim.vehicle(0).vehicle.TotalMass_kg() * 9.81;
@@ -188,12 +201,8 @@ TEST(Simulation, AWarmStartedSolveOfAnIapAtRestEndsInAFewIterations) {
     config.world.warm_start = warm_start;
     config.world.sleep_after_s = 0.0;  // solved every step
     // the boxes (0.10 m tall, centred 0.07 m below P) on the ground
-    config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -0.12)));
-    config.vehicles[0].initial_rotors = InitialRotors::kIdle;
-    Simulation sim(config);
-    SubAircraftSetpoint off;
-    off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
-    for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, off);
+    auto unpowered = UnpoweredThreeStar(config, Eigen::Vector3d(0.0, 0.0, -0.12));
+    Simulation& sim = *unpowered;
     for (int k = 0; k < 500; ++k) sim.Step();
     const SolverStats settled = sim.world().solver_stats();
     for (int k = 0; k < 500; ++k) sim.Step();
@@ -279,12 +288,8 @@ TEST(Simulation, AFallingBoxWakesASleepingIap) {
   SimulationConfig config;
   // a 0.5 kg box 4.8 m above the platform's top (z = −0.145): it lands after about a second
   config.world.objects = {Box("box", Eigen::Vector3d(0.1, 0.1, 0.1), Eigen::Vector3d(0.0, 0.0, -5.0), 0.5)};
-  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -0.12)));
-  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
-  Simulation sim(config);
-  SubAircraftSetpoint off;
-  off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
-  for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, off);
+  auto unpowered = UnpoweredThreeStar(config, Eigen::Vector3d(0.0, 0.0, -0.12));
+  Simulation& sim = *unpowered;
   const int platform = sim.output(0).platform_body;
   const int box = sim.world().FindBody("box");
   for (int k = 0; k < 900; ++k) sim.Step();
@@ -330,12 +335,8 @@ TEST(Simulation, CollisionFiltersLetAVehiclePassThroughAnObject) {
   ghost.filter.group = 4;
   ghost.filter.mask = ~1;  // collides with everything but group 1 (vehicles)
   config.world.objects = {ghost};
-  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d::Zero()));
-  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
-  Simulation sim(config);
-  SubAircraftSetpoint off;
-  off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
-  for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, off);
+  auto unpowered = UnpoweredThreeStar(config, Eigen::Vector3d::Zero());
+  Simulation& sim = *unpowered;
   for (int k = 0; k < 1000; ++k) sim.Step();  // falls 4.9 m through the slab at 0.5 m
   EXPECT_GT(sim.world().body(sim.output(0).platform_body).p_WB_m.z(), 1.0);
   EXPECT_TRUE(sim.world().contacts().empty());

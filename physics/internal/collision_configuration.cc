@@ -15,16 +15,10 @@
 #include <cmath>
 #include <limits>
 
+#include "physics/internal/bullet_eigen.h"
+
 namespace iapsim::physics::internal {
 namespace {
-
-Eigen::Vector3d Eig(const btVector3& v) { return Eigen::Vector3d(v.x(), v.y(), v.z()); }
-
-Eigen::Matrix3d Eig(const btMatrix3x3& m) {
-  Eigen::Matrix3d out;
-  for (int r = 0; r < 3; ++r) out.row(r) = Eig(m.getRow(r)).transpose();
-  return out;
-}
 
 // A shape's bound in W: a cylinder itself, a mesh piece's principal box, else Bullet's bounds in the shape's
 // frame (margins included).

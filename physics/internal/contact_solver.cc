@@ -6,17 +6,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "physics/internal/bullet_eigen.h"
+
 namespace iapsim::physics::internal {
 namespace {
-
-Eigen::Vector3d Eig(const btVector3& v) { return Eigen::Vector3d(v.x(), v.y(), v.z()); }
-
-// Bullet's btMatrix3x3 of a quaternion, row-major into Eigen
-Eigen::Matrix3d Eig(const btMatrix3x3& m) {
-  Eigen::Matrix3d out;
-  for (int r = 0; r < 3; ++r) out.row(r) = Eig(m.getRow(r)).transpose();
-  return out;
-}
 
 Eigen::Matrix3d Cross(const Eigen::Vector3d& v) {
   Eigen::Matrix3d m;
