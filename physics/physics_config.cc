@@ -122,6 +122,12 @@ VehicleSpec ReadVehicle(YamlMap& map, const std::string& scenario_file, std::str
   std::string reaction = "air";
   map.OptionalChoice("torque_reaction", &reaction, {"air", "platform"});
   spec.torque_reaction = reaction == "air" ? TorqueReaction::kAir : TorqueReaction::kPlatform;
+  if (map.Has("command_link")) {
+    YamlMap link = map.Map("command_link");
+    link.OptionalInRange("delay_s", &spec.command_link.delay_s, 0.0, 10.0);
+    link.OptionalInRange("jitter_s", &spec.command_link.jitter_s, 0.0, 10.0);
+    link.Finish();
+  }
   map.Finish();
   return spec;
 }

@@ -72,7 +72,8 @@ void FillBody(const std::string& name, const BodyState& state, iapsim_msgs::Body
   out->accel_W.angular = ToVector3Msg(state.alpha_WB_W);
 }
 
-void FillOdometry(const iapsim_msgs::BodyState& body, const std_msgs::Header& header, nav_msgs::Odometry* odom) {
+void FillOdometry(const iapsim_msgs::BodyState& body, const std_msgs::Header& header,
+                  nav_msgs::Odometry* odom) {
   odom->header = header;
   odom->child_frame_id = body.name;
   odom->pose.pose = body.pose_W;
@@ -83,6 +84,7 @@ class PhysicsNode : public bridge::Process {
  public:
   PhysicsNode(const bridge::ProcessContext& context, bridge::YamlMap& params)
       : config_(ReadPhysicsConfig(params, context.scenario.file, context.scenario.clock.step_s)) {
+    config_.simulation.seed = context.seed;
     try {
       sim_ = std::make_unique<Simulation>(config_.simulation);
     } catch (const std::invalid_argument& e) {
@@ -109,8 +111,9 @@ class PhysicsNode : public bridge::Process {
     for (int v = 0; v < sim_->vehicle_count(); ++v) {
       const std::string& name = sim_->vehicle(v).name;
       bus.Subscribe<iapsim_msgs::IapCommand>(
-          "/" + name + "/cmd",
-          [this, v](const iapsim_msgs::IapCommand& command, const bridge::MessageInfo&) { OnCommand(v, command); });
+          "/" + name + "/cmd", [this, v](const iapsim_msgs::IapCommand& command, const bridge::MessageInfo&) {
+            OnCommand(v, command);
+          });
     }
     bus.Subscribe<iapsim_msgs::LatchCommand>(
         "/latch/command", [this](const iapsim_msgs::LatchCommand& command, const bridge::MessageInfo&) {
@@ -180,8 +183,9 @@ class PhysicsNode : public bridge::Process {
     const size_t n = sim_->vehicle(v).vehicle.sub_aircraft.size();
     if (command.sub_aircraft.size() != n) {
       if (vehicle.rejected++ == 0) {
-        spdlog::warn("/{}/cmd: a command for {} sub-aircraft, the vehicle has {}: rejected (the last one holds)",
-                     sim_->vehicle(v).name, command.sub_aircraft.size(), n);
+        spdlog::warn(
+            "/{}/cmd: a command for {} sub-aircraft, the vehicle has {}: rejected (the last one holds)",
+            sim_->vehicle(v).name, command.sub_aircraft.size(), n);
       }
       return;
     }
@@ -196,8 +200,9 @@ class PhysicsNode : public bridge::Process {
         continue;
       }
       if (!sim_->SetCommand(v, static_cast<int>(s), setpoint) && sim_->output(v).invalid_commands == 1) {
-        spdlog::warn("/{}/cmd: sub-aircraft {} got a NaN, infinite or non-unit setpoint: rejected, the last holds",
-                     sim_->vehicle(v).name, s);
+        spdlog::warn(
+            "/{}/cmd: sub-aircraft {} got a NaN, infinite or non-unit setpoint: rejected, the last holds",
+            sim_->vehicle(v).name, s);
       }
     }
   }

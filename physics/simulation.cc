@@ -1,5 +1,6 @@
 #include "physics/simulation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -10,7 +11,8 @@ Simulation::Simulation(const SimulationConfig& config)
   vehicle_of_body_.assign(world_.body_count(), -1);
   for (const auto& spec : config.vehicles) {
     for (const auto& other : vehicles_) {
-      if (other->spec.name == spec.name) throw std::invalid_argument("vehicle '" + spec.name + "' is used twice");
+      if (other->spec.name == spec.name)
+        throw std::invalid_argument("vehicle '" + spec.name + "' is used twice");
     }
     auto sim = std::make_unique<VehicleSim>();
     sim->spec = spec;
@@ -19,13 +21,21 @@ Simulation::Simulation(const SimulationConfig& config)
     out.platform_body = world_.AddMultibody(spec.name, spec.description, spec.p_WP_m, q_WP);
     vehicle_of_body_.resize(world_.body_count(), static_cast<int>(vehicles_.size()));
 
+    if (!(spec.command_link.delay_s >= 0.0 && spec.command_link.jitter_s >= 0.0)) {
+      throw std::invalid_argument("vehicle '" + spec.name +
+                                  "': the command link's delay and jitter must be >= 0");
+    }
+    sim->link_delay_steps = std::llround(spec.command_link.delay_s / config.step_s);
+    sim->link_jitter_steps = std::llround(spec.command_link.jitter_s / config.step_s);
+
     const model::Vehicle& vehicle = spec.vehicle;
     const Eigen::VectorXd hover_thrusts_N = vehicle.LevelHoverThrusts_N(config.world.gravity_mps2);
     for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) {
       const model::SubAircraft& sub = vehicle.sub_aircraft[i];
       const int body = world_.FindBody(spec.name + "/" + sub.name);
       if (body < 0) {
-        throw std::invalid_argument("vehicle '" + spec.name + "': its description has no link '" + sub.name + "'");
+        throw std::invalid_argument("vehicle '" + spec.name + "': its description has no link '" + sub.name +
+                                    "'");
       }
       out.sub_aircraft_bodies.push_back(body);
       SubAircraftSim s;
@@ -34,7 +44,8 @@ Simulation::Simulation(const SimulationConfig& config)
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument("vehicle '" + spec.name + "', " + sub.name + ": " + e.what());
       }
-      s.controller = std::make_unique<FlightController>(sub.flight_controller, sub.mass.inertia_B_kgm2, *s.rotors);
+      s.controller =
+          std::make_unique<FlightController>(sub.flight_controller, sub.mass.inertia_B_kgm2, *s.rotors);
       const int n = s.rotors->count();
       if (spec.initial_rotors == InitialRotors::kHover) {
         RotorVector speeds;
@@ -43,6 +54,8 @@ Simulation::Simulation(const SimulationConfig& config)
         s.setpoint.thrust_N = hover_thrusts_N[i];
       }
       s.setpoint.q_WS = world_.body(body).q_WB;  // hold the initial attitude until commanded
+      // one stream per link, decorrelated (SplitMix64's increment, as the sensors seed theirs)
+      s.jitter_random.seed(config.seed + 0x9E3779B97F4A7C15ULL * (vehicles_.size() * 64 + i + 1));
       sim->sub_aircraft.push_back(std::move(s));
       SubAircraftOutput sub_out;
       sub_out.rotor_speeds_rad_s = sim->sub_aircraft.back().rotors->speeds_rad_s();
@@ -84,7 +97,20 @@ bool Simulation::SetCommand(int v, int s, const SubAircraftSetpoint& setpoint) {
     ++vehicle.output.invalid_commands;
     return false;
   }
-  vehicle.sub_aircraft.at(s).setpoint = setpoint;
+  SubAircraftSim& sub = vehicle.sub_aircraft.at(s);
+  if (vehicle.link_delay_steps == 0 && vehicle.link_jitter_steps == 0) {
+    sub.setpoint = setpoint;
+    return true;
+  }
+  // the jitter from the engine's raw output: std::uniform_int_distribution differs between standard
+  // libraries, and a run must repeat anywhere (the modulo's bias is below 1e-17 for any jitter in steps)
+  const int64_t jitter =
+      vehicle.link_jitter_steps > 0
+          ? static_cast<int64_t>(sub.jitter_random() % static_cast<uint64_t>(vehicle.link_jitter_steps + 1))
+          : 0;
+  int64_t arrival = step_count() + vehicle.link_delay_steps + jitter;
+  if (!sub.in_flight.empty()) arrival = std::max(arrival, sub.in_flight.back().first);  // a link keeps order
+  sub.in_flight.emplace_back(arrival, setpoint);
   return true;
 }
 
@@ -124,6 +150,12 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
 
 void Simulation::Step() {
   for (auto& vehicle : vehicles_) {
+    for (SubAircraftSim& sub : vehicle->sub_aircraft) {
+      while (!sub.in_flight.empty() && sub.in_flight.front().first <= step_count()) {
+        sub.setpoint = sub.in_flight.front().second;
+        sub.in_flight.pop_front();
+      }
+    }
     for (int s = 0; s < static_cast<int>(vehicle->sub_aircraft.size()); ++s) ApplySubAircraft(*vehicle, s);
   }
   world_.Step();

@@ -15,7 +15,10 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstdint>
+#include <deque>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -31,14 +34,24 @@ enum class TorqueReaction { kAir, kPlatform };
 /// Initial rotor speeds: hover carries the weight with no moment (level trim); idle is the minimum.
 enum class InitialRotors { kHover, kIdle };
 
+/// The link from the IAP computer to each sub-aircraft's flight controller (a serial or radio link on the
+/// real vehicle): a setpoint takes effect `delay_s` after it was set, plus a jitter drawn uniformly from [0,
+/// jitter_s] per setpoint, both rounded to whole physics steps so that runs stay deterministic, and setpoints
+/// never overtake each other. Zero (the default) applies a setpoint in the step it was set for.
+struct CommandLink {
+  double delay_s = 0.0;
+  double jitter_s = 0.0;
+};
+
 struct VehicleSpec {
   std::string name;
-  model::Vehicle vehicle;                    // rotors and flight controllers
+  model::Vehicle vehicle;                   // rotors and flight controllers
   model::MultibodyDescription description;  // the rigid bodies (from the vehicle's URDF)
   Eigen::Vector3d p_WP_m = Eigen::Vector3d::Zero();
   double yaw_rad = 0.0;
   InitialRotors initial_rotors = InitialRotors::kHover;
   TorqueReaction torque_reaction = TorqueReaction::kAir;
+  CommandLink command_link;
 };
 
 /// A docking port: a point Q of a body and the axis along which the mating part arrives, pointing out of
@@ -64,6 +77,7 @@ struct LatchSpec {
 
 struct SimulationConfig {
   double step_s = 0.001;
+  uint64_t seed = 0;  // the simulation's random streams (the command links' jitter)
   WorldConfig world;
   std::vector<VehicleSpec> vehicles;
   std::vector<LatchSpec> latches;
@@ -81,7 +95,7 @@ struct SubAircraftOutput {
 };
 
 struct VehicleOutput {
-  int platform_body = 0;                // body id in the world
+  int platform_body = 0;                 // body id in the world
   std::vector<int> sub_aircraft_bodies;  // in the vehicle's order
   std::vector<SubAircraftOutput> sub_aircraft;
   // resultant of every contact between the vehicle and anything else, moment about P's origin (the point
@@ -90,8 +104,8 @@ struct VehicleOutput {
   Eigen::Vector3d external_torque_W_Nm = Eigen::Vector3d::Zero();
   Eigen::Vector3d external_force_P_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d external_torque_P_Nm = Eigen::Vector3d::Zero();
-  uint64_t invalid_commands = 0;   // rejected setpoints (NaN, infinite, non-unit quaternion)
-  uint64_t saturated_steps = 0;    // sub-aircraft steps where a mixer cut
+  uint64_t invalid_commands = 0;  // rejected setpoints (NaN, infinite, non-unit quaternion)
+  uint64_t saturated_steps = 0;   // sub-aircraft steps where a mixer cut
 };
 
 /// A latch after the last step. The errors are those of port b relative to port a, in a's port axes.
@@ -120,8 +134,9 @@ class Simulation {
   int vehicle_count() const { return static_cast<int>(vehicles_.size()); }
   const VehicleSpec& vehicle(int v) const { return vehicles_[v]->spec; }
 
-  /// Holds this setpoint for sub-aircraft s of vehicle v until the next one. An invalid setpoint is
-  /// rejected (counted, the last valid one held) and false returned.
+  /// Holds this setpoint for sub-aircraft s of vehicle v until the next one, from the next Step (or, through
+  /// the vehicle's CommandLink, that many steps later). An invalid setpoint is rejected (counted, the last
+  /// valid one held) and false returned.
   bool SetCommand(int v, int s, const SubAircraftSetpoint& setpoint);
 
   void Step();
@@ -148,11 +163,16 @@ class Simulation {
     std::unique_ptr<Rotors> rotors;
     std::unique_ptr<FlightController> controller;
     SubAircraftSetpoint setpoint;
+    // the command link: setpoints on their way, by the step they arrive at (non-decreasing), and its jitter
+    std::deque<std::pair<int64_t, SubAircraftSetpoint>> in_flight;
+    std::mt19937_64 jitter_random;
   };
   struct VehicleSim {
     VehicleSpec spec;
     std::vector<SubAircraftSim> sub_aircraft;
     VehicleOutput output;
+    int64_t link_delay_steps = 0;
+    int64_t link_jitter_steps = 0;
   };
 
   struct LatchSim {

@@ -1,13 +1,18 @@
 // The Bullet world and the IAP simulation: kinematics as described, conservation laws, contact forces
 // against analytic values, collision filtering, hover.
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <cmath>
 #include <memory>
+#include <string>
+#include <vector>
 
+#include "bridge/config.h"
 #include "model/urdf.h"
 #include "model/vehicle.h"
 #include "physics/multibody_world.h"
+#include "physics/physics_config.h"
 #include "physics/simulation.h"
 
 namespace iapsim::physics {
@@ -373,6 +378,118 @@ TEST(Simulation, RejectsInvalidCommandsAndHoldsTheLastOne) {
   EXPECT_EQ(sim.output(0).invalid_commands, 2u);
   for (int k = 0; k < 1000; ++k) sim.Step();
   EXPECT_TRUE(sim.world().body(sim.output(0).platform_body).p_WB_m.allFinite());
+}
+
+// The command link: thrust-torque setpoints show up unchanged in the sub-aircraft's thrust, so the step each
+// one takes effect can be read off. One new setpoint a step, each with its own thrust; returns, per setpoint,
+// how many steps after the one it was set for it first took effect (-1: overtaken within a step, never seen).
+std::vector<int64_t> LinkDelays(const CommandLink& link, uint64_t seed, int setpoints) {
+  SimulationConfig config;
+  config.world.ground = false;
+  config.world.gravity_mps2 = 0.0;
+  config.seed = seed;
+  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d::Zero()));
+  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+  config.vehicles[0].command_link = link;
+  Simulation sim(config);
+  std::vector<int64_t> delays(static_cast<size_t>(setpoints), -1);
+  SubAircraftSetpoint setpoint;
+  setpoint.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  int64_t last_seen = -1;
+  for (int k = 0; k < setpoints + 100; ++k) {
+    if (k < setpoints) {
+      setpoint.thrust_W_N = Eigen::Vector3d(0.0, 0.0, -(k + 1.0));
+      EXPECT_TRUE(sim.SetCommand(0, 0, setpoint));
+    }
+    sim.Step();
+    const int64_t seen = std::lround(-sim.output(0).sub_aircraft[0].thrust_W_N.z()) - 1;
+    EXPECT_GE(seen, last_seen) << "setpoints overtook each other at step " << k;
+    if (seen > last_seen) delays[static_cast<size_t>(seen)] = k - seen;
+    last_seen = seen;
+  }
+  return delays;
+}
+
+TEST(CommandLink, NoLinkAppliesASetpointInTheStepItWasSetFor) {
+  for (const int64_t delay : LinkDelays(CommandLink{}, 1, 50)) EXPECT_EQ(delay, 0);
+}
+
+TEST(CommandLink, ADelayHoldsEverySetpointBackByExactlyThatManySteps) {
+  for (const int64_t delay : LinkDelays(CommandLink{0.010, 0.0}, 1, 200)) EXPECT_EQ(delay, 10);
+  // rounded to the step grid: 2.4 ms is 2 steps of 1 ms
+  for (const int64_t delay : LinkDelays(CommandLink{0.0024, 0.0}, 1, 50)) EXPECT_EQ(delay, 2);
+}
+
+// Jitter: each setpoint's delay is uniform on [delay, delay + jitter] in steps, in order (a setpoint that
+// would overtake arrives with the one ahead of it), the same for a seed and different for another.
+TEST(CommandLink, JitterIsUniformBoundedInOrderAndSeeded) {
+  const CommandLink link{0.010, 0.004};
+  const std::vector<int64_t> delays = LinkDelays(link, 7, 20000);
+  std::vector<int> histogram(5, 0);
+  int seen = 0;
+  for (const int64_t delay : delays) {
+    if (delay < 0) continue;  // overtaken: never in effect on its own
+    ASSERT_GE(delay, 10);
+    ASSERT_LE(delay, 14);
+    ++histogram[static_cast<size_t>(delay - 10)];
+    ++seen;
+  }
+  EXPECT_GT(seen, 5000);
+  for (int bin = 0; bin < 5; ++bin) EXPECT_GT(histogram[static_cast<size_t>(bin)], 0) << bin;
+  EXPECT_EQ(LinkDelays(link, 7, 2000), LinkDelays(link, 7, 2000));
+  EXPECT_NE(LinkDelays(link, 7, 2000), LinkDelays(link, 8, 2000));
+  // setpoints sent every 5 ms (a 200 Hz controller) cannot overtake with 4 ms of jitter: each one's delay is
+  // drawn independently, uniform over the five steps
+  SimulationConfig config;
+  config.world.ground = false;
+  config.world.gravity_mps2 = 0.0;
+  config.seed = 3;
+  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d::Zero()));
+  config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+  config.vehicles[0].command_link = link;
+  Simulation sim(config);
+  SubAircraftSetpoint setpoint;
+  setpoint.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  std::vector<int> counts(5, 0);
+  const int sent = 4000;
+  int64_t in_effect = 0;  // the number of the setpoint in effect: 1, 2, ... (0 before the first arrives)
+  for (int k = 0; k < sent * 5 + 20; ++k) {
+    if (k % 5 == 0 && k / 5 < sent) {
+      setpoint.thrust_W_N = Eigen::Vector3d(0.0, 0.0, -(k / 5 + 1.0));
+      sim.SetCommand(0, 0, setpoint);
+    }
+    sim.Step();
+    const int64_t number = std::lround(-sim.output(0).sub_aircraft[0].thrust_W_N.z());
+    if (number == in_effect) continue;
+    ASSERT_EQ(number, in_effect + 1) << "a setpoint was skipped or overtaken at step " << k;
+    ++counts[static_cast<size_t>(k - 5 * (number - 1) - 10)];
+    in_effect = number;
+  }
+  EXPECT_EQ(in_effect, sent);
+  // each bin holds 1/5 of the setpoints: 800 +- 4 standard deviations (sqrt(4000 * 0.2 * 0.8) = 25)
+  for (int bin = 0; bin < 5; ++bin) EXPECT_NEAR(counts[static_cast<size_t>(bin)], sent / 5, 100) << bin;
+}
+
+TEST(CommandLink, IsReadFromAVehicleEntryAndChecked) {
+  const std::string vehicle_file = std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star.yaml";
+  const std::string good = "vehicles:\n  - {name: iap, file: " + vehicle_file +
+                           ", command_link: {delay_s: 0.01, jitter_s: 0.002}}\n";
+  bridge::YamlMap params(YAML::Load(good), "test.yaml");
+  const PhysicsConfig config = ReadPhysicsConfig(params, "test.yaml", 0.001);
+  EXPECT_DOUBLE_EQ(config.simulation.vehicles.at(0).command_link.delay_s, 0.01);
+  EXPECT_DOUBLE_EQ(config.simulation.vehicles.at(0).command_link.jitter_s, 0.002);
+  for (const std::string bad : {"{delay_s: -0.01}", "{jitter: 0.002}"}) {
+    SCOPED_TRACE(bad);
+    bridge::YamlMap wrong(
+        YAML::Load("vehicles:\n  - {name: iap, file: " + vehicle_file + ", command_link: " + bad + "}\n"),
+        "test.yaml");
+    try {
+      ReadPhysicsConfig(wrong, "test.yaml", 0.001);
+      ADD_FAILURE() << "accepted";
+    } catch (const bridge::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("command_link"), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace
