@@ -81,7 +81,9 @@ TEST(Vehicle, AnyNumberOfSubAircraftFromYamlAlone) {
   std::string text =
       "name: hexa\n"
       "platform: {mass_kg: 2.0, inertia_kgm2: [0.05, 0.05, 0.1], collision: [{box: [0.3, 0.3, 0.05]}]}\n"
-      "sub_aircraft_defaults: {base: " + F450() + "}\n"
+      "sub_aircraft_defaults: {base: " +
+      F450() +
+      "}\n"
       "sub_aircraft:\n";
   for (int i = 0; i < 6; ++i) {
     const double a = i * M_PI / 3.0;
@@ -91,6 +93,19 @@ TEST(Vehicle, AnyNumberOfSubAircraftFromYamlAlone) {
   const Vehicle v = LoadVehicle(WriteTemp("hexa", text));
   ASSERT_EQ(v.sub_aircraft.size(), 6u);
   EXPECT_EQ(v.sub_aircraft[5].name, "sub6");
+  EXPECT_TRUE(v.platform_drag_area_B_m2.isZero());  // no drag unless a vehicle says
+  // drag areas: per part, a sub-aircraft's from its defaults unless it says otherwise
+  const std::string with_drag =
+      "name: hexa\n"
+      "platform: {mass_kg: 2.0, inertia_kgm2: [0.05, 0.05, 0.1], drag_area_m2: [0.01, 0.02, 0.03]}\n"
+      "sub_aircraft_defaults: {base: " +
+      F450() +
+      ", drag_area_m2: [0.004, 0.004, 0.02]}\n"
+      "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0], drag_area_m2: [0, 0, 0.05]}\n";
+  const Vehicle d = LoadVehicle(WriteTemp("drag", with_drag));
+  EXPECT_EQ(d.platform_drag_area_B_m2, Eigen::Vector3d(0.01, 0.02, 0.03));
+  EXPECT_EQ(d.sub_aircraft[0].drag_area_B_m2, Eigen::Vector3d(0.004, 0.004, 0.02));
+  EXPECT_EQ(d.sub_aircraft[1].drag_area_B_m2, Eigen::Vector3d(0.0, 0.0, 0.05));
   EXPECT_EQ(ParseUrdf(GenerateUrdf(v), "hexa").joints.size(), 6u);
 }
 
@@ -138,9 +153,9 @@ struct BadVehicle {
 
 TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
   const std::string good_platform = "platform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04]}\n";
-  const std::string subs =
-      "sub_aircraft_defaults: {base: " + F450() + "}\n"
-      "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n";
+  const std::string subs = "sub_aircraft_defaults: {base: " + F450() +
+                           "}\n"
+                           "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n";
   const std::vector<BadVehicle> cases = {
       {"typo", "name: x\n" + good_platform + subs + "extra_key: 1\n", "extra_key: unknown key"},
       {"triangle", "name: x\nplatform: {mass_kg: 1, inertia_kgm2: [0.01, 0.01, 0.05]}\n" + subs,
@@ -180,6 +195,11 @@ TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
        "0.1}}]}\n" +
            subs,
        "platform.collision[0].cone.length_m: is required"},
+      {"drag",
+       "name: x\nplatform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04], drag_area_m2: [0.01, -0.01, "
+       "0]}\n" +
+           subs,
+       "platform.drag_area_m2: expected C_d·A per body axis"},
       {"vector",
        "name: x\n" + good_platform + "sub_aircraft_defaults: {base: " + F450() +
            "}\n"

@@ -35,7 +35,6 @@ std::vector<double> ReadNumbers(YamlMap& map, const std::string& key, const std:
   return values;
 }
 
-
 // [xx, yy, zz] or [xx, yy, zz, xy, xz, yz]; must be a physical inertia (positive definite, triangle rule)
 void OptionalInertia(YamlMap& map, const std::string& key, Eigen::Matrix3d* inertia) {
   if (!map.Has(key)) return;
@@ -181,6 +180,13 @@ void ReadFlightController(YamlMap& map, FlightControllerGains* gains) {
   map.Finish();
 }
 
+// drag_area_m2: [x, y, z], C_d·A per body axis, none negative
+void OptionalDragArea(YamlMap& map, Eigen::Vector3d* area_m2) {
+  if (!map.Has("drag_area_m2")) return;
+  OptionalVector3(map, "drag_area_m2", area_m2);
+  if (!(area_m2->minCoeff() >= 0.0)) map.Fail("drag_area_m2", "expected C_d·A per body axis, each >= 0 m^2");
+}
+
 // Fills `sub` from `map`, keeping what is already there (the defaults) for keys the map leaves out.
 void ReadSubAircraft(YamlMap& map, SubAircraft* sub) {
   ReadMass(map, &sub->mass);
@@ -189,6 +195,7 @@ void ReadSubAircraft(YamlMap& map, SubAircraft* sub) {
   sub->joint = joint == "fixed" ? JointType::kFixed : JointType::kSpherical;
   OptionalShapes(map, "collision", &sub->collision);
   map.Optional("mesh", &sub->mesh);
+  OptionalDragArea(map, &sub->drag_area_B_m2);
   if (map.Has("rotors")) {
     YamlMap rotors = map.Map("rotors");
     ReadRotors(rotors, &sub->rotors);
@@ -205,7 +212,8 @@ void OptionalVector3(YamlMap& map, const std::string& key, Eigen::Vector3d* valu
   if (!map.Has(key)) {
     map.Raw(key);  // a known key though absent: Finish() can suggest it for a misspelling
     const Eigen::Vector3d in_file_unit = *value / scale;
-    map.SetResolved(key, YAML::Node(std::vector<double>{in_file_unit.x(), in_file_unit.y(), in_file_unit.z()}));
+    map.SetResolved(key,
+                    YAML::Node(std::vector<double>{in_file_unit.x(), in_file_unit.y(), in_file_unit.z()}));
     return;
   }
   const auto v = ReadNumbers(map, key, {3});
@@ -242,7 +250,8 @@ Eigen::Matrix3d RotationFromRpy(const Eigen::Vector3d& rpy_rad) {
 
 Eigen::Vector3d Vehicle::CenterOfMass_P_m() const {
   Eigen::Vector3d moment = platform.mass_kg * platform.com_B_m;
-  for (const auto& t : tools) moment += t.mass.mass_kg * (t.origin_P_m + RotationFromRpy(t.rpy_P_rad) * t.mass.com_B_m);
+  for (const auto& t : tools)
+    moment += t.mass.mass_kg * (t.origin_P_m + RotationFromRpy(t.rpy_P_rad) * t.mass.com_B_m);
   for (const auto& s : sub_aircraft) {
     moment += s.mass.mass_kg *
               (s.joint_P_m + Eigen::AngleAxisd(s.initial_yaw_rad, Eigen::Vector3d::UnitZ()) * s.mass.com_B_m);
@@ -267,10 +276,11 @@ Eigen::Matrix3d Vehicle::LumpedInertia_P_kgm2() const {
                       t.origin_P_m + R_PT * t.mass.com_B_m);
   }
   for (const auto& s : sub_aircraft) {
-    const Eigen::Matrix3d R_PS = Eigen::AngleAxisd(s.initial_yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    const Eigen::Matrix3d own =
-        s.joint == JointType::kFixed ? Eigen::Matrix3d(R_PS * s.mass.inertia_B_kgm2 * R_PS.transpose())
-                                     : Eigen::Matrix3d::Zero();
+    const Eigen::Matrix3d R_PS =
+        Eigen::AngleAxisd(s.initial_yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Matrix3d own = s.joint == JointType::kFixed
+                                    ? Eigen::Matrix3d(R_PS * s.mass.inertia_B_kgm2 * R_PS.transpose())
+                                    : Eigen::Matrix3d::Zero();
     J += ShiftInertia(own, s.mass.mass_kg, s.joint_P_m + R_PS * s.mass.com_B_m);
   }
   return J;
@@ -300,6 +310,7 @@ Vehicle LoadVehicle(const std::string& path) {
   CheckMass(platform, vehicle.platform, "the platform");
   OptionalShapes(platform, "collision", &vehicle.platform_collision);
   platform.Optional("mesh", &vehicle.platform_mesh);
+  OptionalDragArea(platform, &vehicle.platform_drag_area_B_m2);
   platform.Finish();
 
   if (top.Has("tools")) {

@@ -68,11 +68,11 @@ struct RotorSet {
 /// Gains of the simulated flight controller (PX4-style cascade: attitude P -> body-rate PI -> mixer).
 /// Per axis (roll, pitch, yaw) of the sub-aircraft body frame.
 struct FlightControllerGains {
-  Eigen::Vector3d attitude_p_per_s{6.5, 6.5, 2.8};       // rate setpoint per attitude error (PX4 MC_*_P)
-  Eigen::Vector3d rate_p_per_s{20.0, 20.0, 10.0};        // angular acceleration per rate error
-  Eigen::Vector3d rate_i_per_s2{10.0, 10.0, 5.0};        // ... per integrated rate error
+  Eigen::Vector3d attitude_p_per_s{6.5, 6.5, 2.8};            // rate setpoint per attitude error (PX4 MC_*_P)
+  Eigen::Vector3d rate_p_per_s{20.0, 20.0, 10.0};             // angular acceleration per rate error
+  Eigen::Vector3d rate_i_per_s2{10.0, 10.0, 5.0};             // ... per integrated rate error
   Eigen::Vector3d rate_integral_limit_rad_s2{5.0, 5.0, 2.0};  // bound of the integral's contribution
-  Eigen::Vector3d max_rate_rad_s{3.84, 3.84, 3.49};      // PX4 MC_*RATE_MAX: 220, 220, 200 deg/s
+  Eigen::Vector3d max_rate_rad_s{3.84, 3.84, 3.49};           // PX4 MC_*RATE_MAX: 220, 220, 200 deg/s
 };
 
 struct SubAircraft {
@@ -85,6 +85,7 @@ struct SubAircraft {
   FlightControllerGains flight_controller;
   std::vector<Shape> collision;
   std::string mesh;
+  Eigen::Vector3d drag_area_B_m2 = Eigen::Vector3d::Zero();  // C_d·A per body axis (physics/wind.h); 0: none
 };
 
 struct Vehicle {
@@ -93,6 +94,7 @@ struct Vehicle {
   MassProperties platform;  // com_B_m is d_c
   std::vector<Shape> platform_collision;
   std::string platform_mesh;
+  Eigen::Vector3d platform_drag_area_B_m2 = Eigen::Vector3d::Zero();  // C_d·A per P axis, tools included
   std::vector<Tool> tools;
   std::vector<SubAircraft> sub_aircraft;
 
@@ -112,7 +114,8 @@ struct Vehicle {
 /// YAML readers shared by the configuration files that place shapes and frames (vehicles, worlds).
 /// `value` keeps its default when the key is absent (and is recorded as resolved); `scale` converts units
 /// (degrees to radians).
-void OptionalVector3(bridge::YamlMap& map, const std::string& key, Eigen::Vector3d* value, double scale = 1.0);
+void OptionalVector3(bridge::YamlMap& map, const std::string& key, Eigen::Vector3d* value,
+                     double scale = 1.0);
 /// Whether the body that carries shapes moves. Bullet collides a mesh's triangles (not its convex hull) with
 /// other bodies reliably only when the mesh does not move (model/mesh.h, physics/multibody_world.h).
 enum class BodyMotion { kMoving, kStatic };

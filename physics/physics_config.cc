@@ -206,6 +206,24 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
   config.simulation.step_s = publish_step_s / config.substeps;
   YamlMap world = params.Map("world");
   config.simulation.world = ReadWorld(world);
+  if (params.Has("air")) {
+    YamlMap air = params.Map("air");
+    AirConfig& out = config.simulation.air;
+    air.OptionalInRange("density_kgpm3", &out.density_kgpm3, 0.0, 100.0);
+    model::OptionalVector3(air, "wind_W_mps", &out.wind_W_mps);
+    if (!out.wind_W_mps.allFinite() || out.wind_W_mps.norm() > 100.0) {
+      air.Fail("wind_W_mps", "expected a mean wind of at most 100 m/s");
+    }
+    if (air.Has("turbulence")) {
+      YamlMap turbulence = air.Map("turbulence");
+      std::string model = "dryden";
+      turbulence.OptionalChoice("model", &model, {"dryden"});
+      turbulence.OptionalInRange("w20_mps", &out.w20_mps, 0.0, 50.0);
+      turbulence.Finish();
+      out.turbulence = true;
+    }
+    air.Finish();
+  }
 
   const YAML::Node vehicles = params.Raw("vehicles");
   if (!vehicles || !vehicles.IsSequence() || vehicles.size() == 0) {

@@ -7,7 +7,10 @@
 namespace iapsim::physics {
 
 Simulation::Simulation(const SimulationConfig& config)
-    : world_(config.world, config.step_s), gravity_W_(0.0, 0.0, config.world.gravity_mps2) {
+    : world_(config.world, config.step_s),
+      gravity_W_(0.0, 0.0, config.world.gravity_mps2),
+      air_(config.air),
+      ground_z_m_(config.world.ground ? config.world.ground_z_m : 0.0) {
   vehicle_of_body_.assign(world_.body_count(), -1);
   for (const auto& spec : config.vehicles) {
     for (const auto& other : vehicles_) {
@@ -27,6 +30,10 @@ Simulation::Simulation(const SimulationConfig& config)
     }
     sim->link_delay_steps = std::llround(spec.command_link.delay_s / config.step_s);
     sim->link_jitter_steps = std::llround(spec.command_link.jitter_s / config.step_s);
+    if (config.air.turbulence) {
+      sim->turbulence = std::make_unique<DrydenTurbulence>(config.seed + 0x9E3779B97F4A7C15ULL *
+                                                                             (vehicles_.size() * 64 + 63));
+    }
 
     const model::Vehicle& vehicle = spec.vehicle;
     const Eigen::VectorXd hover_thrusts_N = vehicle.LevelHoverThrusts_N(config.world.gravity_mps2);
@@ -114,6 +121,40 @@ bool Simulation::SetCommand(int v, int s, const SubAircraftSetpoint& setpoint) {
   return true;
 }
 
+void Simulation::ApplyAir(VehicleSim& vehicle) {
+  VehicleOutput& out = vehicle.output;
+  const BodyState& platform = world_.body(out.platform_body);
+  Eigen::Vector3d wind_W = air_.wind_W_mps;
+  if (vehicle.turbulence) {
+    // frozen turbulence carried past the vehicle at its airspeed (at least 0.5 m/s: the model needs V > 0,
+    // and a hover in still air sees the gusts change no faster than that); u along the mean wind's
+    // horizontal direction (north without one), v to its right, w down
+    const Eigen::Vector3d air_W = air_.wind_W_mps - platform.v_WBcom_W;
+    const double airspeed_mps = std::max(air_W.norm(), 0.5);
+    const double height_m = std::max(ground_z_m_ - platform.p_WBcom_m.z(), 0.0);
+    const Eigen::Vector3d gust =
+        vehicle.turbulence->Step(LowAltitudeDryden(height_m, air_.w20_mps), airspeed_mps, world_.step_s());
+    Eigen::Vector3d along(air_.wind_W_mps.x(), air_.wind_W_mps.y(), 0.0);
+    along = along.norm() > 1e-9 ? along.normalized() : Eigen::Vector3d::UnitX();
+    wind_W += gust.x() * along + gust.y() * Eigen::Vector3d::UnitZ().cross(along) +
+              gust.z() * Eigen::Vector3d::UnitZ();
+  }
+  out.wind_W_mps = wind_W;
+  out.air_force_W_N.setZero();
+  auto drag = [&](int body, const Eigen::Vector3d& area_B_m2) {
+    if (area_B_m2.isZero()) return;
+    const BodyState& state = world_.body(body);
+    const Eigen::Vector3d force_W =
+        DragForce_W(area_B_m2, air_.density_kgpm3, state.q_WB, state.v_WBcom_W, wind_W);
+    world_.AddForce_W(body, force_W);
+    out.air_force_W_N += force_W;
+  };
+  drag(out.platform_body, vehicle.spec.vehicle.platform_drag_area_B_m2);
+  for (size_t s = 0; s < out.sub_aircraft_bodies.size(); ++s) {
+    drag(out.sub_aircraft_bodies[s], vehicle.spec.vehicle.sub_aircraft[s].drag_area_B_m2);
+  }
+}
+
 void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
   SubAircraftSim& sim = vehicle.sub_aircraft[s];
   SubAircraftOutput& out = vehicle.output.sub_aircraft[s];
@@ -150,6 +191,7 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
 
 void Simulation::Step() {
   for (auto& vehicle : vehicles_) {
+    ApplyAir(*vehicle);
     for (SubAircraftSim& sub : vehicle->sub_aircraft) {
       while (!sub.in_flight.empty() && sub.in_flight.front().first <= step_count()) {
         sub.setpoint = sub.in_flight.front().second;

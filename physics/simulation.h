@@ -27,6 +27,7 @@
 #include "physics/flight_controller.h"
 #include "physics/multibody_world.h"
 #include "physics/rotor.h"
+#include "physics/wind.h"
 
 namespace iapsim::physics {
 
@@ -75,8 +76,18 @@ struct LatchSpec {
   bool auto_close = true;               // close by itself when it can (else only on request)
 };
 
+/// The air (physics/wind.h): every part with a drag area (the vehicle YAML's drag_area_m2) feels quadratic
+/// drag against the wind, a mean wind plus, optionally, Dryden turbulence at the vehicle's height.
+struct AirConfig {
+  double density_kgpm3 = 1.225;                          // ISA sea level
+  Eigen::Vector3d wind_W_mps = Eigen::Vector3d::Zero();  // the mean wind's velocity, NED
+  bool turbulence = false;
+  double w20_mps = 7.72;  // turbulence: the wind at 20 ft; MIL-F-8785C light 15 kt, moderate 30, severe 45
+};
+
 struct SimulationConfig {
   double step_s = 0.001;
+  AirConfig air;
   uint64_t seed = 0;  // the simulation's random streams (the command links' jitter)
   WorldConfig world;
   std::vector<VehicleSpec> vehicles;
@@ -104,6 +115,8 @@ struct VehicleOutput {
   Eigen::Vector3d external_torque_W_Nm = Eigen::Vector3d::Zero();
   Eigen::Vector3d external_force_P_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d external_torque_P_Nm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d wind_W_mps = Eigen::Vector3d::Zero();  // at the platform in the last step, gusts included
+  Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();  // drag on all its parts in the last step
   uint64_t invalid_commands = 0;  // rejected setpoints (NaN, infinite, non-unit quaternion)
   uint64_t saturated_steps = 0;   // sub-aircraft steps where a mixer cut
 };
@@ -173,6 +186,7 @@ class Simulation {
     VehicleOutput output;
     int64_t link_delay_steps = 0;
     int64_t link_jitter_steps = 0;
+    std::unique_ptr<DrydenTurbulence> turbulence;  // when the air is turbulent
   };
 
   struct LatchSim {
@@ -182,12 +196,15 @@ class Simulation {
   };
 
   void ApplySubAircraft(VehicleSim& vehicle, int s);
+  void ApplyAir(VehicleSim& vehicle);
   void ComputeOutputs(int v);
   bool Close(LatchSim& latch);
   void UpdateLatch(LatchSim& latch);
 
   MultibodyWorld world_;
   Eigen::Vector3d gravity_W_;
+  AirConfig air_;
+  double ground_z_m_ = 0.0;  // the turbulence's height reference (z = 0 without a ground)
   std::vector<std::unique_ptr<VehicleSim>> vehicles_;
   std::vector<int> vehicle_of_body_;  // -1: not part of a vehicle
   std::vector<LatchSim> latches_;

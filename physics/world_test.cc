@@ -4,6 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "physics/multibody_world.h"
 #include "physics/physics_config.h"
 #include "physics/simulation.h"
+#include "physics/wind.h"
 
 namespace iapsim::physics {
 namespace {
@@ -137,9 +139,14 @@ WorldObject Box(const std::string& name, const Eigen::Vector3d& size_m, const Ei
 
 // The three-star with P at p_WP_m, its rotors idle and commanded to give nothing: it falls, or rests on
 // its sub-aircraft's boxes.
-std::unique_ptr<Simulation> UnpoweredThreeStar(SimulationConfig config, const Eigen::Vector3d& p_WP_m) {
+std::unique_ptr<Simulation> UnpoweredThreeStar(SimulationConfig config, const Eigen::Vector3d& p_WP_m,
+                                               double drag_area_m2 = 0.0) {
   config.vehicles.push_back(Spec("three_star", p_WP_m));
   config.vehicles[0].initial_rotors = InitialRotors::kIdle;
+  // C_d·A per axis on every part (physics/wind.h)
+  model::Vehicle& vehicle = config.vehicles[0].vehicle;
+  vehicle.platform_drag_area_B_m2 = Eigen::Vector3d::Constant(drag_area_m2);
+  for (auto& sub : vehicle.sub_aircraft) sub.drag_area_B_m2 = Eigen::Vector3d::Constant(drag_area_m2);
   auto sim = std::make_unique<Simulation>(config);
   SubAircraftSetpoint off;
   off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
@@ -488,6 +495,99 @@ TEST(CommandLink, IsReadFromAVehicleEntryAndChecked) {
       ADD_FAILURE() << "accepted";
     } catch (const bridge::ConfigError& e) {
       EXPECT_NE(std::string(e.what()).find("command_link"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// Drag (physics/wind.h) on a whole IAP against analytic solutions of m v' = −½ ρ ΣCdA |v − wind| (v − wind).
+
+TEST(Air, AFallingIapReachesTheTerminalVelocityOfItsDragArea) {
+  const double area_m2 = 0.945, density = 1.225;
+  SimulationConfig config;
+  config.world.ground = false;
+  auto sim = UnpoweredThreeStar(config, Eigen::Vector3d::Zero(), area_m2);
+  // no ground, no wind: the IAP falls, its rotors give nothing
+  const double mass_kg = sim->vehicle(0).vehicle.TotalMass_kg();
+  const double terminal_mps = std::sqrt(2.0 * mass_kg * 9.81 / (density * 4.0 * area_m2));  // 5.0 m/s
+  for (int k = 0; k < 5000; ++k) sim->Step();  // ten time constants v_t / g
+  const BodyState& platform = sim->world().body(sim->output(0).platform_body);
+  std::printf("terminal velocity %.5f m/s (analytic %.5f)\n", platform.v_WBcom_W.z(), terminal_mps);
+  EXPECT_NEAR(platform.v_WBcom_W.z(), terminal_mps, 1e-3 * terminal_mps);
+  EXPECT_NEAR(sim->output(0).air_force_W_N.z(), -mass_kg * 9.81, 1e-2 * mass_kg * 9.81);
+  EXPECT_LT(platform.v_WBcom_W.head<2>().norm(), 1e-6);
+}
+
+TEST(Air, AFreeIapIsCarriedAlongByTheWindAsQuadraticDragPredicts) {
+  const double area_m2 = 0.05, density = 1.225, wind_mps = 3.0;
+  SimulationConfig config;
+  config.world.ground = false;
+  config.world.gravity_mps2 = 0.0;
+  config.air.wind_W_mps = Eigen::Vector3d(wind_mps, 0.0, 0.0);
+  auto sim = UnpoweredThreeStar(config, Eigen::Vector3d::Zero(), area_m2);
+  const double mass_kg = sim->vehicle(0).vehicle.TotalMass_kg();
+  // the relative speed r = wind − v obeys r' = −k r², k = ρ ΣCdA / (2 m): r(t) = r0 / (1 + k r0 t)
+  const double k = density * 4.0 * area_m2 / (2.0 * mass_kg);
+  for (int step = 1; step <= 4000; ++step) {
+    sim->Step();
+    if (step % 1000 != 0) continue;
+    const double t_s = step * 0.001;
+    const double expected_mps = wind_mps - wind_mps / (1.0 + k * wind_mps * t_s);
+    // the whole IAP's centre of mass: the parts' drag acts at different heights, so it pitches a little
+    Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
+    std::vector<int> bodies = sim->output(0).sub_aircraft_bodies;
+    bodies.push_back(sim->output(0).platform_body);
+    for (const int body : bodies) momentum += sim->world().mass_kg(body) * sim->world().body(body).v_WBcom_W;
+    EXPECT_NEAR(momentum.x() / mass_kg, expected_mps, 1e-3 * expected_mps) << t_s << " s";
+  }
+  EXPECT_EQ(sim->output(0).wind_W_mps, config.air.wind_W_mps);
+}
+
+// Turbulence reaches the vehicles through the Simulation: gusts about the mean wind, of the Dryden
+// intensity for the vehicle's height, the same for a seed.
+TEST(Air, TurbulentWindVariesAboutTheMeanAndRepeatsForASeed) {
+  SimulationConfig config;
+  config.air.wind_W_mps = Eigen::Vector3d(0.0, 4.0, 0.0);  // toward the east
+  config.air.turbulence = true;
+  config.air.w20_mps = 7.72;
+  config.seed = 5;
+  std::vector<Eigen::Vector3d> winds[2];
+  for (int run = 0; run < 2; ++run) {
+    auto sim = UnpoweredThreeStar(config, Eigen::Vector3d(0.0, 0.0, -20.0), 0.01);
+    for (int k = 0; k < 2000; ++k) {
+      sim->Step();
+      winds[run].push_back(sim->output(0).wind_W_mps);
+    }
+  }
+  EXPECT_EQ(winds[0], winds[1]);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& w : winds[0]) mean += w / static_cast<double>(winds[0].size());
+  const DrydenScales scales = LowAltitudeDryden(20.0, 7.72);
+  // two seconds of gusts with correlation times of seconds: the mean stays within a few sigma of the wind
+  EXPECT_LT((mean - config.air.wind_W_mps).norm(), 4.0 * scales.sigma_u_mps);
+  EXPECT_GT((winds[0].front() - winds[0].back()).norm(), 1e-3);
+}
+
+TEST(Air, IsReadFromThePhysicsParamsAndChecked) {
+  const std::string vehicles = "vehicles:\n  - {name: iap, file: " + std::string(IAPSIM_SOURCE_DIR) +
+                               "/configs/vehicles/three_star.yaml}\n";
+  bridge::YamlMap params(
+      YAML::Load(vehicles +
+                 "air: {density_kgpm3: 1.1, wind_W_mps: [3, -1, 0], turbulence: {w20_mps: 15.4}}\n"),
+      "test.yaml");
+  const AirConfig air = ReadPhysicsConfig(params, "test.yaml", 0.001).simulation.air;
+  EXPECT_EQ(air.density_kgpm3, 1.1);
+  EXPECT_EQ(air.wind_W_mps, Eigen::Vector3d(3.0, -1.0, 0.0));
+  EXPECT_TRUE(air.turbulence);
+  EXPECT_EQ(air.w20_mps, 15.4);
+  for (const std::string bad :
+       {"{density_kgpm3: -1}", "{wind_W_mps: [3, 0]}", "{turbulence: {model: von_karman}}", "{gusts: 1}"}) {
+    SCOPED_TRACE(bad);
+    bridge::YamlMap wrong(YAML::Load(vehicles + "air: " + bad + "\n"), "test.yaml");
+    try {
+      ReadPhysicsConfig(wrong, "test.yaml", 0.001);
+      ADD_FAILURE() << "accepted";
+    } catch (const bridge::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("air"), std::string::npos) << e.what();
     }
   }
 }
