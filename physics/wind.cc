@@ -63,7 +63,12 @@ double DrydenTurbulence::Normal() {
 // sqrt(qT/4), uncorrelated), so that when the airspeed, and with it T, changes, the gusts keep their
 // intensity instead of jumping with the state's units.
 void DrydenTurbulence::Update(Discrete* filter, int order, double time_constant_s, double dt_s) {
-  if (filter->time_constant_s == time_constant_s && filter->dt_s == dt_s) return;
+  // the airspeed, and with it T, changes a little every step: a filter is discretised again (three 4 x 4
+  // matrix exponentials a step otherwise) only when T moved by more than 1 %, a 1 % shift of the spectrum
+  if (filter->dt_s == dt_s &&
+      std::abs(time_constant_s - filter->time_constant_s) <= 0.01 * filter->time_constant_s) {
+    return;
+  }
   filter->time_constant_s = time_constant_s;
   filter->dt_s = dt_s;
   const double T = time_constant_s, q = kNoiseIntensity;

@@ -65,6 +65,18 @@ double Measure(const model::Vehicle& vehicle, bool contacts, const physics::Worl
   return physics::MeasureStepsPerSecond(&simulation, kSecondsPerFigure);
 }
 
+// In the air as above, in a 4 m/s wind with light Dryden turbulence and drag on every part (issue 19's air;
+// the F450's C_d·A as in the README's example): what the air model costs against still air.
+double MeasureInGustyAir(model::Vehicle vehicle) {
+  vehicle.platform_drag_area_B_m2 = Eigen::Vector3d(0.01, 0.01, 0.04);
+  for (auto& sub : vehicle.sub_aircraft) sub.drag_area_B_m2 = Eigen::Vector3d(0.03, 0.03, 0.06);
+  physics::SimulationConfig config = Scene(vehicle, false, {});
+  config.air.wind_W_mps = Eigen::Vector3d(4.0, 0.0, 0.0);
+  config.air.turbulence = true;
+  physics::Simulation simulation(config);
+  return physics::MeasureStepsPerSecond(&simulation, kSecondsPerFigure);
+}
+
 struct ContactFigures {
   double steps_per_s = 0.0;
   size_t contacts = 0;
@@ -170,6 +182,7 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
   const double air = Measure(three_star, false);
   const double ground = Measure(three_star, true, awake);
   const double asleep = Measure(three_star, true);
+  const double gusty = MeasureInGustyAir(three_star);
   const double bare = physics::MeasureBareMultibodyStepsPerSecond(three_star, n_star, kSecondsPerFigure);
   std::printf("  %-38s %10.0f  (%.2f of bare Bullet)\n", (three_star.name + ", in the air").c_str(), air,
               air / bare);
@@ -177,12 +190,15 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
               (three_star.name + ", resting on the ground").c_str(), ground, ground / bare, ground / air);
   std::printf("  %-38s %10.0f  (%.2f of in the air)\n", (three_star.name + ", ... asleep (default)").c_str(),
               asleep, asleep / air);
+  std::printf("  %-38s %10.0f  (%.2f of still air)\n", (three_star.name + ", in gusty air, drag").c_str(),
+              gusty, gusty / air);
   std::printf("  %-38s %10.0f\n", "bare Bullet multibody, same size", bare);
   (*report)["physics"]["vehicle"] = three_star.name;
   (*report)["physics"]["air_steps_per_s"] = air;
   (*report)["physics"]["ground_steps_per_s"] = ground;
   (*report)["physics"]["ground_asleep_steps_per_s"] = asleep;
   (*report)["physics"]["bare_steps_per_s"] = bare;
+  (*report)["physics"]["gusty_air_steps_per_s"] = gusty;
   BenchContact(three_star, air, &(*report)["physics"]);
 
   std::printf("\n  %3s %12s %8s %12s %12s %14s\n", "n", "in the air", "vs bare", "on ground", "bare",
