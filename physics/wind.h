@@ -61,8 +61,9 @@ class DrydenTurbulence {
 };
 
 /// The air's force on a body moving at `v_body_W` in wind `wind_W`, both in W, with orientation q_WB: in body
-/// axes F_i = ½ ρ (C_d·A)_i |v_air| v_air,i, v_air = wind − v_body (quadratic drag per body axis, the model
-/// of RotorS' and most multirotor simulators' body drag). Returned in W.
+/// axes F_i = ½ ρ (C_d·A)_i |v_air| v_air,i, v_air = wind − v_body: the drag equation (Hoerner, Fluid-Dynamic
+/// Drag, 1965) with a drag area per body axis, so a flat frame can be draggier from above than edge-on.
+/// Returned in W.
 Eigen::Vector3d DragForce_W(const Eigen::Vector3d& drag_area_B_m2, double density_kgpm3,
                             const Eigen::Quaterniond& q_WB, const Eigen::Vector3d& v_body_W_mps,
                             const Eigen::Vector3d& wind_W_mps);

@@ -199,24 +199,22 @@ btScalar ContactSolver::solveGroupCacheFriendlySetup(btCollisionObject** bodies,
 void ContactSolver::Start(btMultiBodySolverConstraint& row, btScalar impulse) {
   row.m_appliedImpulse = impulse;
   if (impulse == 0.0) return;
-  if (row.m_multiBodyA) {
-    btScalar* unit_response = &m_data.m_deltaVelocitiesUnitImpulse[row.m_jacAindex];
-    applyDeltaVee(unit_response, impulse, row.m_deltaVelAindex, row.m_multiBodyA->getNumDofs() + 6);
-    row.m_multiBodyA->applyDeltaVeeMultiDof2(unit_response, impulse);
-  } else if (row.m_solverBodyIdA >= 0) {
-    btSolverBody& body = m_tmpSolverBodyPool[row.m_solverBodyIdA];
-    body.internalApplyImpulse(row.m_contactNormal1 * body.internalGetInvMass(), row.m_angularComponentA,
-                              impulse);
-  }
-  if (row.m_multiBodyB) {
-    btScalar* unit_response = &m_data.m_deltaVelocitiesUnitImpulse[row.m_jacBindex];
-    applyDeltaVee(unit_response, impulse, row.m_deltaVelBindex, row.m_multiBodyB->getNumDofs() + 6);
-    row.m_multiBodyB->applyDeltaVeeMultiDof2(unit_response, impulse);
-  } else if (row.m_solverBodyIdB >= 0) {
-    btSolverBody& body = m_tmpSolverBodyPool[row.m_solverBodyIdB];
-    body.internalApplyImpulse(row.m_contactNormal2 * body.internalGetInvMass(), row.m_angularComponentB,
-                              impulse);
-  }
+  // one side of the row: a multibody through its unit responses, or a rigid solver body
+  auto apply = [&](btMultiBody* multibody, int jac_index, int delta_index, int solver_body,
+                   const btVector3& normal, const btVector3& angular) {
+    if (multibody) {
+      btScalar* unit_response = &m_data.m_deltaVelocitiesUnitImpulse[jac_index];
+      applyDeltaVee(unit_response, impulse, delta_index, multibody->getNumDofs() + 6);
+      multibody->applyDeltaVeeMultiDof2(unit_response, impulse);
+    } else if (solver_body >= 0) {
+      btSolverBody& body = m_tmpSolverBodyPool[solver_body];
+      body.internalApplyImpulse(normal * body.internalGetInvMass(), angular, impulse);
+    }
+  };
+  apply(row.m_multiBodyA, row.m_jacAindex, row.m_deltaVelAindex, row.m_solverBodyIdA, row.m_contactNormal1,
+        row.m_angularComponentA);
+  apply(row.m_multiBodyB, row.m_jacBindex, row.m_deltaVelBindex, row.m_solverBodyIdB, row.m_contactNormal2,
+        row.m_angularComponentB);
 }
 
 void ContactSolver::convertContacts(btPersistentManifold** manifolds, int num_manifolds,
