@@ -69,6 +69,9 @@ TEST(Vehicle, ThreeStarMatchesTableI) {
     EXPECT_EQ(sub.rotors.spin[0] + sub.rotors.spin[1] + sub.rotors.spin[2] + sub.rotors.spin[3], 0);
     EXPECT_NEAR(sub.rotors.hub_S_m[0].norm(), 0.225, 1e-12);
     EXPECT_NEAR(4 * sub.rotors.MaxThrust_N() / (1.6 * 9.81), 2.6, 0.05);
+    EXPECT_DOUBLE_EQ(sub.rotors.radius_m, 0.127);
+    EXPECT_DOUBLE_EQ(sub.rotors.drag_N_per_radps_mps, 8.06428e-5);
+    EXPECT_DOUBLE_EQ(sub.rotors.rolling_moment_Nm_per_radps_mps, 1e-6);
   }
   EXPECT_DOUBLE_EQ(v.TotalMass_kg(), 5.9);
   // equilateral: the joints' centroid is the platform origin
@@ -190,6 +193,12 @@ TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
            " motor_time_constant_s: 0.02, speed_rad_s: [900, 100]}\n"
            "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
        "sub_aircraft_defaults.rotors.speed_rad_s: expected 0 <= min < max"},
+      {"propellers that overlap",
+       "name: x\n" + good_platform + "sub_aircraft_defaults:\n  base: " + F450() +
+           "\n  rotors: {arm_m: 0.2, thrust_coefficient: 1e-5, torque_coefficient: 1e-7,"
+           " motor_time_constant_s: 0.02, speed_rad_s: [100, 900], radius_m: 0.15}\n"
+           "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
+       "sub_aircraft_defaults.rotors.radius_m: must be in [0, 0.14"},
       {"cone",
        "name: x\nplatform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04], collision: [{cone: {radius_m: "
        "0.1}}]}\n" +

@@ -136,7 +136,8 @@ Shape ReadShape(YamlMap& map, BodyMotion motion) {
 }
 
 // rotors: {layout: x | plus, arm_m, thrust_coefficient, torque_coefficient, motor_time_constant_s,
-//          speed_rad_s: [min, max]}; motor numbering and spin follow PX4's quadrotor geometries
+//          speed_rad_s: [min, max], radius_m, drag_coefficient, rolling_moment_coefficient}; motor
+//          numbering and spin follow PX4's quadrotor geometries
 void ReadRotors(YamlMap& map, RotorSet* rotors) {
   std::string layout = "x";
   map.OptionalChoice("layout", &layout, {"x", "plus"});
@@ -155,6 +156,10 @@ void ReadRotors(YamlMap& map, RotorSet* rotors) {
   if (!(speed[0] >= 0.0 && speed[1] > speed[0])) map.Fail("speed_rad_s", "expected 0 <= min < max");
   rotors->min_speed_rad_s = speed[0];
   rotors->max_speed_rad_s = speed[1];
+  // neighbouring hubs are arm·√2 apart in either layout: larger propellers would overlap
+  map.OptionalInRange("radius_m", &rotors->radius_m, 0.0, arm_m / std::sqrt(2.0));
+  map.OptionalInRange("drag_coefficient", &rotors->drag_N_per_radps_mps, 0.0, 1.0);
+  map.OptionalInRange("rolling_moment_coefficient", &rotors->rolling_moment_Nm_per_radps_mps, 0.0, 1.0);
   map.Finish();
 
   const double a = layout == "x" ? arm_m / std::sqrt(2.0) : arm_m;

@@ -60,6 +60,11 @@ struct RotorSet {
   double motor_time_constant_s = 0.0;
   double min_speed_rad_s = 0.0;
   double max_speed_rad_s = 0.0;
+  // aerodynamics, used when a scenario models the air (physics/rotor.h); 0: not modelled
+  double radius_m = 0.0;  // propeller radius, for ground effect
+  // rotor drag and rolling moment per unit rotor speed and in-plane airspeed
+  double drag_N_per_radps_mps = 0.0;
+  double rolling_moment_Nm_per_radps_mps = 0.0;
 
   double MaxThrust_N() const { return thrust_coefficient * max_speed_rad_s * max_speed_rad_s; }
   double MinThrust_N() const { return thrust_coefficient * min_speed_rad_s * min_speed_rad_s; }

@@ -163,6 +163,11 @@ struct MultibodyWorld::Impl {
   std::vector<std::unique_ptr<btMultiBodyLinkCollider>> colliders;
   std::vector<std::unique_ptr<btMotionState>> motion_states;
   std::vector<std::unique_ptr<btRigidBody>> rigid_bodies;  // objects, and the ground
+  struct StaticObject {
+    btRigidBody* rigid;
+    btVector3 aabb_min, aabb_max;  // in W, fixed
+  };
+  std::vector<StaticObject> static_objects;
 
   std::vector<Body> bodies;
   std::vector<BodyState> states;
@@ -392,6 +397,11 @@ struct MultibodyWorld::Impl {
     rigid->setUserIndex(static_cast<int>(bodies.size()));
     SetContactProcessingThreshold(rigid);
     world.addRigidBody(rigid, object.filter.group, object.filter.mask);
+    if (object.mass_kg == 0.0) {
+      StaticObject fixed{rigid, {}, {}};
+      shape->getAabb(pose, fixed.aabb_min, fixed.aabb_max);
+      static_objects.push_back(fixed);
+    }
 
     Body body;
     body.name = object.name;
@@ -858,6 +868,29 @@ int64_t MultibodyWorld::step_count() const { return impl_->step_count; }
 const BodyState& MultibodyWorld::body(int body) const { return impl_->states.at(body); }
 const std::vector<Contact>& MultibodyWorld::contacts() const { return impl_->contacts; }
 const SolverStats& MultibodyWorld::solver_stats() const { return impl_->solver_stats; }
+
+double MultibodyWorld::StaticSurfaceDistance_m(const Eigen::Vector3d& from_W,
+                                               const Eigen::Vector3d& direction_W, double max_m) const {
+  const Impl& impl = *impl_;
+  double distance_m = max_m;
+  if (impl.settings.ground && direction_W.z() > 0.0) {  // the ground is below, at larger z
+    distance_m = std::clamp((impl.settings.ground_z_m - from_W.z()) / direction_W.z(), 0.0, distance_m);
+  }
+  const btVector3 from = Bt(from_W);
+  for (const Impl::StaticObject& object : impl.static_objects) {
+    const btVector3 to = Bt(from_W + distance_m * direction_W);
+    btVector3 ray_min = from, ray_max = from;
+    ray_min.setMin(to);
+    ray_max.setMax(to);
+    if (!TestAabbAgainstAabb2(ray_min, ray_max, object.aabb_min, object.aabb_max)) continue;
+    btCollisionWorld::ClosestRayResultCallback hit(from, to);
+    btTransform from_pose(btQuaternion::getIdentity(), from), to_pose(btQuaternion::getIdentity(), to);
+    btCollisionWorld::rayTestSingle(from_pose, to_pose, object.rigid, object.rigid->getCollisionShape(),
+                                    object.rigid->getWorldTransform(), hit);
+    if (hit.hasHit()) distance_m *= hit.m_closestHitFraction;
+  }
+  return distance_m;
+}
 
 bool MultibodyWorld::asleep(int body) const {
   const int m = impl_->bodies.at(body).multibody_index;

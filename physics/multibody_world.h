@@ -173,6 +173,10 @@ class MultibodyWorld {
   const BodyState& body(int body) const;
   const std::vector<Contact>& contacts() const;
   const SolverStats& solver_stats() const;
+  /// How far along the ray from `from_W` in the unit direction `direction_W` the first static surface (the
+  /// ground plane or a static object) lies, or `max_m` when none is nearer. For the air's ground effect.
+  double StaticSurfaceDistance_m(const Eigen::Vector3d& from_W, const Eigen::Vector3d& direction_W,
+                                 double max_m) const;
   /// Whether the multibody that `body` belongs to sleeps (see WorldConfig::sleep_after_s).
   bool asleep(int body) const;
   /// The sum of the last step's contact forces on `body` (from everything it touches), in W.

@@ -197,6 +197,35 @@ LatchSpec ReadLatch(YamlMap& map, const SimulationConfig& simulation) {
   return latch;
 }
 
+// gusts: [{start_s, rise_s, hold_s, amplitude_W_mps: [n, e, d]}, ...]
+std::vector<DiscreteGust> ReadGusts(YamlMap& air) {
+  std::vector<DiscreteGust> gusts;
+  if (!air.Has("gusts")) return gusts;
+  YAML::Node resolved(YAML::NodeType::Sequence);
+  const YAML::Node list = air.Raw("gusts");
+  if (!list.IsSequence()) air.Fail("gusts", "expected a list of {start_s, rise_s, hold_s, amplitude_W_mps}");
+  for (size_t i = 0; i < list.size(); ++i) {
+    YamlMap map(list[i], air.file(), air.PathOf("gusts") + "[" + std::to_string(i) + "]");
+    DiscreteGust gust;
+    map.Required("start_s", &gust.start_s);
+    if (!(gust.start_s >= 0.0 && gust.start_s < 1e9)) map.Fail("start_s", "expected a time >= 0 s");
+    map.Required("rise_s", &gust.rise_s);
+    if (!(gust.rise_s > 0.0 && gust.rise_s < 1e6)) map.Fail("rise_s", "expected a rise time > 0 s");
+    map.OptionalInRange("hold_s", &gust.hold_s, 0.0, 1e9);
+    if (!map.Has("amplitude_W_mps"))
+      map.Fail("amplitude_W_mps", "is required: the gust's peak wind, NED, m/s");
+    model::OptionalVector3(map, "amplitude_W_mps", &gust.amplitude_W_mps);
+    if (!gust.amplitude_W_mps.allFinite() || gust.amplitude_W_mps.norm() > 100.0) {
+      map.Fail("amplitude_W_mps", "expected a gust of at most 100 m/s");
+    }
+    map.Finish();
+    gusts.push_back(gust);
+    resolved.push_back(map.Resolved());
+  }
+  air.SetResolved("gusts", resolved);
+  return gusts;
+}
+
 }  // namespace
 
 PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_file, double publish_step_s) {
@@ -222,7 +251,12 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
       turbulence.Finish();
       out.turbulence = true;
     }
+    out.gusts = ReadGusts(air);
+    air.Optional("body_drag", &out.body_drag);
+    air.Optional("rotor_drag", &out.rotor_drag);
+    air.Optional("ground_effect", &out.ground_effect);
     air.Finish();
+    out.enabled = true;
   }
 
   const YAML::Node vehicles = params.Raw("vehicles");

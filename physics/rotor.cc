@@ -9,6 +9,12 @@
 
 namespace iapsim::physics {
 
+double CheesemanBennettThrustRatio(double height_over_radius) {
+  const double z_over_r = std::max(height_over_radius, 0.5);
+  const double image = 1.0 / (4.0 * z_over_r);
+  return 1.0 / (1.0 - image * image);
+}
+
 Rotors::Rotors(const model::RotorSet& rotors, const Eigen::Vector3d& com_S_m)
     : set_(rotors),
       com_S_m_(com_S_m),
@@ -53,6 +59,34 @@ void Rotors::Wrench_S(Eigen::Vector3d* force_S_N, Eigen::Vector3d* torque_S_Nm) 
   const Eigen::Vector4d wrench = effect_ * thrusts;
   *force_S_N = Eigen::Vector3d(0.0, 0.0, -wrench[0]);
   *torque_S_Nm = wrench.tail<3>();
+}
+
+void Rotors::Wrench_S(const RotorVector& thrust_ratio, Eigen::Vector3d* force_S_N,
+                      Eigen::Vector3d* torque_S_Nm) const {
+  const RotorVector thrusts = set_.thrust_coefficient * speeds_rad_s_.cwiseAbs2();
+  const RotorVector extra = thrusts.cwiseProduct(thrust_ratio) - thrusts;
+  Eigen::Vector4d wrench = effect_ * (thrusts + extra);
+  // effect_'s yaw row is the drag torque per unit thrust, which ground effect does not change
+  wrench[3] -= effect_.row(3).dot(extra);
+  *force_S_N = Eigen::Vector3d(0.0, 0.0, -wrench[0]);
+  *torque_S_Nm = wrench.tail<3>();
+}
+
+void Rotors::AirWrench_S(const Eigen::Vector3d& v_air_S_mps, const Eigen::Vector3d& w_WS_S,
+                         Eigen::Vector3d* force_S_N, Eigen::Vector3d* torque_S_Nm) const {
+  force_S_N->setZero();
+  torque_S_Nm->setZero();
+  if (set_.drag_N_per_radps_mps == 0.0 && set_.rolling_moment_Nm_per_radps_mps == 0.0) return;
+  for (int j = 0; j < count(); ++j) {
+    const Eigen::Vector3d r_S = set_.hub_S_m[j] - com_S_m_;
+    Eigen::Vector3d v_perp_S = v_air_S_mps + w_WS_S.cross(r_S);
+    v_perp_S.z() = 0.0;
+    const double speed = std::abs(speeds_rad_s_[j]);
+    const Eigen::Vector3d drag_S = -speed * set_.drag_N_per_radps_mps * v_perp_S;
+    *force_S_N += drag_S;
+    *torque_S_Nm +=
+        r_S.cross(drag_S) - set_.spin[j] * speed * set_.rolling_moment_Nm_per_radps_mps * v_perp_S;
+  }
 }
 
 void Rotors::SpeedsForThrusts(const RotorVector& thrusts_N, RotorVector* speeds_rad_s) const {

@@ -1,7 +1,9 @@
 #pragma once
 // Rotors of one sub-aircraft: first-order motor speed dynamics with saturation, thrust k_f·ω² along −z_S at
 // each hub and drag torque k_m·ω² about z_S (issue 3, seed §V-C), and the mixer that turns a collective
-// thrust and body torque into per-rotor thrusts within the motors' limits.
+// thrust and body torque into per-rotor thrusts within the motors' limits. When a scenario models the air
+// (issue 19), ground effect scales each rotor's thrust and the rotors' in-plane aerodynamics (rotor drag,
+// rolling moment) add to the wrench.
 
 #include <Eigen/Core>
 
@@ -12,6 +14,13 @@ namespace iapsim::physics {
 constexpr int kMaxRotors = 8;
 /// Per-rotor values; fixed capacity so the physics step never allocates.
 using RotorVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRotors, 1>;
+
+/// Thrust in ground effect over thrust out of it at the same rotor speed, for a rotor `height_over_radius`
+/// radii above a surface: Cheeseman & Bennett, "The effect of the ground on a helicopter rotor in forward
+/// flight", ARC R&M 3021 (1955), from a source image of the rotor's wake in hover:
+/// T_IGE / T_OGE = 1 / (1 − (R / 4z)²). The formula is singular at z = R/4 and was checked by its authors
+/// down to about z = R/2; below that the ratio stays at its value there, 4/3.
+double CheesemanBennettThrustRatio(double height_over_radius);
 
 class Rotors {
  public:
@@ -32,6 +41,20 @@ class Rotors {
 
   /// Net force (N) in S and torque (N·m) about the CoM in S from the current speeds.
   void Wrench_S(Eigen::Vector3d* force_S_N, Eigen::Vector3d* torque_S_Nm) const;
+  /// The same with each rotor's thrust scaled by `thrust_ratio` (ground effect); the drag torques stay
+  /// k_m·ω² (the model gives the thrust at a speed, not the torque).
+  void Wrench_S(const RotorVector& thrust_ratio, Eigen::Vector3d* force_S_N,
+                Eigen::Vector3d* torque_S_Nm) const;
+  /// The rotors' in-plane aerodynamics while S's CoM moves at `v_air_S_mps` relative to the air and S turns
+  /// at `w_WS_S`, both in S. Per rotor, with v⊥ its hub's velocity relative to the air perpendicular to the
+  /// rotor axis z_S and ω its speed: the rotor drag F = −|ω| c_D v⊥ at the hub (induced drag and blade
+  /// flapping's thrust tilt lumped into one term: Martin & Salaün, "The true role of accelerometer feedback
+  /// in quadrotor control", ICRA 2010) and the rolling moment M = −spin |ω| c_R v⊥ of the advancing blade's
+  /// extra lift (RotorS, Furrer et al., "RotorS — a modular Gazebo MAV simulator framework", 2016). Force
+  /// (N) in S, torque (N·m) about the CoM in S; zero without the rotor set's coefficients.
+  void AirWrench_S(const Eigen::Vector3d& v_air_S_mps, const Eigen::Vector3d& w_WS_S,
+                   Eigen::Vector3d* force_S_N, Eigen::Vector3d* torque_S_Nm) const;
+  const model::RotorSet& set() const { return set_; }
 
   /// Speeds that give these rotor thrusts (clamped to the limits).
   void SpeedsForThrusts(const RotorVector& thrusts_N, RotorVector* speeds_rad_s) const;

@@ -82,6 +82,68 @@ TEST(Rotors, MixerIsExactInsideTheLimitsAndKeepsTiltOverYaw) {
   }
 }
 
+// Ground effect against Cheeseman & Bennett's T_IGE / T_OGE = 1 / (1 − (R / 4z)²), worked by hand.
+TEST(Rotors, GroundEffectFollowsCheesemanBennettFromHalfARadiusUp) {
+  EXPECT_NEAR(CheesemanBennettThrustRatio(0.5), 4.0 / 3.0, 1e-15);
+  EXPECT_NEAR(CheesemanBennettThrustRatio(1.0), 16.0 / 15.0, 1e-15);
+  EXPECT_NEAR(CheesemanBennettThrustRatio(2.0), 64.0 / 63.0, 1e-15);
+  EXPECT_NEAR(CheesemanBennettThrustRatio(4.0), 256.0 / 255.0, 1e-15);
+  EXPECT_NEAR(CheesemanBennettThrustRatio(0.3), 4.0 / 3.0, 1e-15);  // held below the formula's range
+  EXPECT_NEAR(CheesemanBennettThrustRatio(0.0), 4.0 / 3.0, 1e-15);
+
+  // a ratio scales that rotor's thrust, and so its roll and pitch moments, not its drag torque
+  const model::SubAircraft sub = F450();
+  Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());
+  const double k_f = sub.rotors.thrust_coefficient;
+  rotors.SetSpeeds(RotorVector::Constant(4, 600.0));
+  RotorVector ratio = RotorVector::Ones(4);
+  ratio[0] = 1.25;  // front-right
+  Eigen::Vector3d force, torque;
+  rotors.Wrench_S(ratio, &force, &torque);
+  const double thrust = k_f * 600.0 * 600.0, arm = 0.225 / std::sqrt(2.0);
+  EXPECT_NEAR(force.z(), -4.25 * thrust, 1e-12);
+  EXPECT_NEAR(torque.x(), -arm * 0.25 * thrust, 1e-12);
+  EXPECT_NEAR(torque.y(), arm * 0.25 * thrust, 1e-12);
+  EXPECT_NEAR(torque.z(), 0.0, 1e-15);
+}
+
+// Rotor drag and rolling moment against F = −|ω| c_D v⊥ and M = −spin |ω| c_R v⊥ per rotor, with the
+// coefficients RotorS and PX4's x500 publish (parts/f450.yaml), worked by hand.
+TEST(Rotors, RotorDragAndRollingMomentFollowTheModelWithItsPublishedCoefficients) {
+  const model::SubAircraft sub = F450();
+  Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());
+  const double c_d = 8.06428e-5, c_r = 1e-6, arm = 0.225 / std::sqrt(2.0);
+  rotors.SetSpeeds(RotorVector::Constant(4, 800.0));
+  Eigen::Vector3d force, torque;
+  // flying forward at 5 m/s through still air: 4 × 800 × 8.06428e-5 × 5 = 1.2902848 N back; the drag of
+  // the four hubs and the rolling moments of the counter-rotating pairs cancel as moments
+  rotors.AirWrench_S(Eigen::Vector3d(5.0, 0.0, 0.0), Eigen::Vector3d::Zero(), &force, &torque);
+  EXPECT_NEAR(force.x(), -1.2902848, 1e-12);
+  EXPECT_NEAR(force.tail<2>().norm(), 0.0, 1e-15);
+  EXPECT_NEAR(torque.norm(), 0.0, 1e-15);
+  // climbing: the air flows along the rotor axes, nothing in-plane
+  rotors.AirWrench_S(Eigen::Vector3d(0.0, 0.0, -3.0), Eigen::Vector3d::Zero(), &force, &torque);
+  EXPECT_EQ(force.norm() + torque.norm(), 0.0);
+
+  // the front-right rotor (CCW) 200 rad/s faster: its advancing blade rolls S about −x (the flight
+  // direction), and its extra drag at the hub (+arm, +arm) yaws S about +z
+  RotorVector speeds = RotorVector::Constant(4, 800.0);
+  speeds[0] = 1000.0;
+  rotors.SetSpeeds(speeds);
+  rotors.AirWrench_S(Eigen::Vector3d(5.0, 0.0, 0.0), Eigen::Vector3d::Zero(), &force, &torque);
+  EXPECT_NEAR(force.x(), -(3.0 * 800.0 + 1000.0) * c_d * 5.0, 1e-12);
+  EXPECT_NEAR(torque.x(), -200.0 * c_r * 5.0, 1e-15);
+  EXPECT_NEAR(torque.y(), 0.0, 1e-15);
+  EXPECT_NEAR(torque.z(), arm * 200.0 * c_d * 5.0, 1e-15);
+
+  // yawing at 2 rad/s in still air: every hub moves tangentially at 2 × 0.225 m/s, a damping torque
+  // −4 ω c_D r² w_z
+  rotors.SetSpeeds(RotorVector::Constant(4, 800.0));
+  rotors.AirWrench_S(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, 0.0, 2.0), &force, &torque);
+  EXPECT_NEAR(force.norm(), 0.0, 1e-15);
+  EXPECT_NEAR(torque.z(), -4.0 * 800.0 * c_d * 0.225 * 0.225 * 2.0, 1e-14);
+}
+
 TEST(FlightController, AttitudeErrorGivesARateTowardTheSetpoint) {
   const model::SubAircraft sub = F450();
   Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());

@@ -66,6 +66,7 @@ Simulation::Simulation(const SimulationConfig& config)
       sim->sub_aircraft.push_back(std::move(s));
       SubAircraftOutput sub_out;
       sub_out.rotor_speeds_rad_s = sim->sub_aircraft.back().rotors->speeds_rad_s();
+      sub_out.thrust_ratio = RotorVector::Ones(n);
       out.sub_aircraft.push_back(sub_out);
     }
     vehicles_.push_back(std::move(sim));
@@ -122,6 +123,7 @@ bool Simulation::SetCommand(int v, int s, const SubAircraftSetpoint& setpoint) {
 }
 
 void Simulation::ApplyAir(VehicleSim& vehicle) {
+  if (!air_.enabled) return;
   VehicleOutput& out = vehicle.output;
   const BodyState& platform = world_.body(out.platform_body);
   Eigen::Vector3d wind_W = air_.wind_W_mps;
@@ -139,19 +141,56 @@ void Simulation::ApplyAir(VehicleSim& vehicle) {
     wind_W += gust.x() * along + gust.y() * Eigen::Vector3d::UnitZ().cross(along) +
               gust.z() * Eigen::Vector3d::UnitZ();
   }
+  const double t_s = static_cast<double>(step_count()) * world_.step_s();
+  for (const DiscreteGust& gust : air_.gusts) wind_W += GustVelocity_W(gust, t_s);
   out.wind_W_mps = wind_W;
   out.air_force_W_N.setZero();
-  auto drag = [&](int body, const Eigen::Vector3d& area_B_m2) {
-    if (area_B_m2.isZero()) return;
+  for (SubAircraftOutput& sub : out.sub_aircraft) sub.air_force_W_N.setZero();
+  if (!air_.body_drag) return;
+  auto drag = [&](int body, const Eigen::Vector3d& area_B_m2) -> Eigen::Vector3d {
+    if (area_B_m2.isZero()) return Eigen::Vector3d::Zero();
     const BodyState& state = world_.body(body);
     const Eigen::Vector3d force_W =
         DragForce_W(area_B_m2, air_.density_kgpm3, state.q_WB, state.v_WBcom_W, wind_W);
     world_.AddForce_W(body, force_W);
     out.air_force_W_N += force_W;
+    return force_W;
   };
   drag(out.platform_body, vehicle.spec.vehicle.platform_drag_area_B_m2);
   for (size_t s = 0; s < out.sub_aircraft_bodies.size(); ++s) {
-    drag(out.sub_aircraft_bodies[s], vehicle.spec.vehicle.sub_aircraft[s].drag_area_B_m2);
+    out.sub_aircraft[s].air_force_W_N =
+        drag(out.sub_aircraft_bodies[s], vehicle.spec.vehicle.sub_aircraft[s].drag_area_B_m2);
+  }
+}
+
+void Simulation::ApplyRotorAir(VehicleSim& vehicle, int s) {
+  const SubAircraftSim& sim = vehicle.sub_aircraft[s];
+  SubAircraftOutput& out = vehicle.output.sub_aircraft[s];
+  const BodyState& state = world_.body(vehicle.output.sub_aircraft_bodies[s]);
+  const model::RotorSet& rotors = sim.rotors->set();
+  if (air_.ground_effect && rotors.radius_m > 0.0) {
+    // the wake leaves along +z_S; the image model holds for a surface across it, so the distance is taken
+    // along the rotor axis (for a tilted rotor over flat ground, its height / cos(tilt)); beyond 10 radii the
+    // ratio is within 0.07 % of 1 and no surface is looked for
+    const double reach_m = 10.0 * rotors.radius_m;
+    const Eigen::Vector3d axis_W = state.q_WB * Eigen::Vector3d::UnitZ();
+    for (int j = 0; j < sim.rotors->count(); ++j) {
+      const Eigen::Vector3d hub_W = state.p_WB_m + state.q_WB * rotors.hub_S_m[j];
+      const double distance_m = world_.StaticSurfaceDistance_m(hub_W, axis_W, reach_m);
+      out.thrust_ratio[j] =
+          distance_m < reach_m ? CheesemanBennettThrustRatio(distance_m / rotors.radius_m) : 1.0;
+    }
+  }
+  if (air_.rotor_drag) {
+    const Eigen::Quaterniond q_SW = state.q_WB.conjugate();
+    Eigen::Vector3d force_S, torque_S;
+    sim.rotors->AirWrench_S(q_SW * (state.v_WBcom_W - vehicle.output.wind_W_mps), q_SW * state.w_WB_W,
+                            &force_S, &torque_S);
+    const Eigen::Vector3d force_W = state.q_WB * force_S;
+    world_.AddForce_W(vehicle.output.sub_aircraft_bodies[s], force_W);
+    world_.AddTorque_W(vehicle.output.sub_aircraft_bodies[s], state.q_WB * torque_S);
+    out.air_force_W_N += force_W;
+    vehicle.output.air_force_W_N += force_W;
   }
 }
 
@@ -168,8 +207,9 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
     out.torque_S_Nm = sim.setpoint.torque_S_Nm;
     out.saturated = false;
   } else {
+    if (air_.enabled) ApplyRotorAir(vehicle, s);
     // the rotors act with the speeds they have now; the controller then moves them for the next step
-    sim.rotors->Wrench_S(&force_S, &torque_S);
+    sim.rotors->Wrench_S(out.thrust_ratio, &force_S, &torque_S);
     out.thrust_W_N = state.q_WB * force_S;
     out.torque_S_Nm = torque_S;
     RotorVector thrusts, speeds;
@@ -287,8 +327,8 @@ void Simulation::ComputeOutputs(int v) {
   for (size_t s = 0; s < subs.size(); ++s) {
     SubAircraftOutput& sub = out.sub_aircraft[s];
     const double m = world_.mass_kg(subs[s]);
-    const Eigen::Vector3d joint_on_sub_W =
-        m * world_.body(subs[s]).a_WBcom_W - sub.thrust_W_N - m * gravity_W_ - sub.contact_force_W_N;
+    const Eigen::Vector3d joint_on_sub_W = m * world_.body(subs[s]).a_WBcom_W - sub.thrust_W_N -
+                                           m * gravity_W_ - sub.contact_force_W_N - sub.air_force_W_N;
     sub.joint_force_P_N = R_PW * (-joint_on_sub_W);
   }
 }

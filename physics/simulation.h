@@ -76,13 +76,20 @@ struct LatchSpec {
   bool auto_close = true;               // close by itself when it can (else only on request)
 };
 
-/// The air (physics/wind.h): every part with a drag area (the vehicle YAML's drag_area_m2) feels quadratic
-/// drag against the wind, a mean wind plus, optionally, Dryden turbulence at the vehicle's height.
+/// The air (physics/wind.h, physics/rotor.h), modelled when `enabled` (a scenario's `air:`); without it the
+/// air is still and nothing aerodynamic acts, as in the paper's simulator. The wind is a mean wind plus,
+/// optionally, Dryden turbulence at the vehicle's height and discrete gusts; each effect on the vehicles can
+/// be switched off on its own and needs its coefficients in the vehicle file.
 struct AirConfig {
+  bool enabled = false;
   double density_kgpm3 = 1.225;                          // ISA sea level
   Eigen::Vector3d wind_W_mps = Eigen::Vector3d::Zero();  // the mean wind's velocity, NED
   bool turbulence = false;
   double w20_mps = 7.72;  // turbulence: the wind at 20 ft; MIL-F-8785C light 15 kt, moderate 30, severe 45
+  std::vector<DiscreteGust> gusts;
+  bool body_drag = true;      // quadratic drag of every part with a drag_area_m2
+  bool rotor_drag = true;     // rotor drag and rolling moment of rotors with their coefficients
+  bool ground_effect = true;  // Cheeseman–Bennett, over the ground plane and static objects; needs radius_m
 };
 
 struct SimulationConfig {
@@ -103,6 +110,8 @@ struct SubAircraftOutput {
   // force of the sub-aircraft on the platform through its joint, in P (Newton's law on the sub-aircraft)
   Eigen::Vector3d joint_force_P_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d contact_force_W_N = Eigen::Vector3d::Zero();  // from contacts with anything else
+  Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();      // body and rotor drag on it
+  RotorVector thrust_ratio;  // per rotor: thrust over its thrust out of ground effect (1 without the air)
 };
 
 struct VehicleOutput {
@@ -116,7 +125,7 @@ struct VehicleOutput {
   Eigen::Vector3d external_force_P_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d external_torque_P_Nm = Eigen::Vector3d::Zero();
   Eigen::Vector3d wind_W_mps = Eigen::Vector3d::Zero();  // at the platform in the last step, gusts included
-  Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();  // drag on all its parts in the last step
+  Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();  // body and rotor drag on all its parts
   uint64_t invalid_commands = 0;  // rejected setpoints (NaN, infinite, non-unit quaternion)
   uint64_t saturated_steps = 0;   // sub-aircraft steps where a mixer cut
 };
@@ -197,6 +206,7 @@ class Simulation {
 
   void ApplySubAircraft(VehicleSim& vehicle, int s);
   void ApplyAir(VehicleSim& vehicle);
+  void ApplyRotorAir(VehicleSim& vehicle, int s);  // ground effect and the rotors' drag
   void ComputeOutputs(int v);
   bool Close(LatchSim& latch);
   void UpdateLatch(LatchSim& latch);

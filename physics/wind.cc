@@ -129,6 +129,22 @@ Eigen::Vector3d DrydenTurbulence::Step(const DrydenScales& s, double airspeed_mp
                          0.5 * s.sigma_w_mps * (state_w_(0) + std::sqrt(3.0) * state_w_(1)));
 }
 
+Eigen::Vector3d GustVelocity_W(const DiscreteGust& gust, double t_s) {
+  const double t = t_s - gust.start_s;
+  const double fall_s = gust.rise_s + gust.hold_s;
+  double shape = 0.0;
+  if (t <= 0.0 || t >= fall_s + gust.rise_s) {
+    shape = 0.0;
+  } else if (t < gust.rise_s) {
+    shape = 0.5 * (1.0 - std::cos(M_PI * t / gust.rise_s));
+  } else if (t <= fall_s) {
+    shape = 1.0;
+  } else {
+    shape = 0.5 * (1.0 + std::cos(M_PI * (t - fall_s) / gust.rise_s));
+  }
+  return shape * gust.amplitude_W_mps;
+}
+
 Eigen::Vector3d DragForce_W(const Eigen::Vector3d& drag_area_B_m2, double density_kgpm3,
                             const Eigen::Quaterniond& q_WB, const Eigen::Vector3d& v_body_W_mps,
                             const Eigen::Vector3d& wind_W_mps) {

@@ -60,6 +60,21 @@ class DrydenTurbulence {
   bool started_ = false;
 };
 
+/// A discrete gust: the "1 − cosine" shape of MIL-F-8785C §3.7.4 (MIL-HDBK-1797 keeps it), in time rather
+/// than distance since a hovering rotorcraft travels no distance through the air: from `start_s` the gust
+/// rises as A/2 (1 − cos(π t / rise_s)) to its amplitude A, holds it for `hold_s`, and falls back the same
+/// way. With hold_s = 0 it is the single 1 − cos pulse of the gust load requirements (CS-25.341, FAR 25.341),
+/// with rise_s = H / V for a gradient distance H passed at V.
+struct DiscreteGust {
+  double start_s = 0.0;
+  double rise_s = 1.0;
+  double hold_s = 0.0;
+  Eigen::Vector3d amplitude_W_mps = Eigen::Vector3d::Zero();  // NED
+};
+
+/// The gust's velocity at time `t_s`, in W.
+Eigen::Vector3d GustVelocity_W(const DiscreteGust& gust, double t_s);
+
 /// The air's force on a body moving at `v_body_W` in wind `wind_W`, both in W, with orientation q_WB: in body
 /// axes F_i = ½ ρ (C_d·A)_i |v_air| v_air,i, v_air = wind − v_body: the drag equation (Hoerner, Fluid-Dynamic
 /// Drag, 1965) with a drag area per body axis, so a flat frame can be draggier from above than edge-on.

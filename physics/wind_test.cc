@@ -103,9 +103,37 @@ TEST(Dryden, TheSameSeedRepeatsAndAnotherDiffers) {
   const DrydenScales scales = LowAltitudeDryden(5.0, 7.72);
   DrydenTurbulence a(1), b(1), c(2);
   for (int i = 0; i < 100; ++i) {
-    const Eigen::Vector3d ga = a.Step(scales, 4.0, 0.001), gb = b.Step(scales, 4.0, 0.001);
+    const Eigen::Vector3d ga = a.Step(scales, 4.0, 0.001), gb = b.Step(scales, 4.0, 0.001),
+                          gc = c.Step(scales, 4.0, 0.001);
     EXPECT_EQ(ga, gb);
-    if (i == 99) EXPECT_NE(ga, c.Step(scales, 4.0, 0.001));
+    EXPECT_NE(ga, gc);
+  }
+}
+
+TEST(Gust, OneMinusCosineRiseHoldAndFall) {
+  DiscreteGust gust;
+  gust.start_s = 3.0;
+  gust.rise_s = 2.0;
+  gust.hold_s = 1.0;
+  gust.amplitude_W_mps = Eigen::Vector3d(4.0, -2.0, 1.0);
+  const Eigen::Vector3d a = gust.amplitude_W_mps;
+  EXPECT_EQ(GustVelocity_W(gust, 0.0), Eigen::Vector3d::Zero());
+  EXPECT_EQ(GustVelocity_W(gust, 3.0), Eigen::Vector3d::Zero());
+  EXPECT_LT((GustVelocity_W(gust, 3.5) - a * 0.5 * (1.0 - std::cos(M_PI / 4.0))).norm(), 1e-15);
+  EXPECT_LT((GustVelocity_W(gust, 4.0) - 0.5 * a).norm(), 1e-15);
+  EXPECT_LT((GustVelocity_W(gust, 5.0) - a).norm(), 1e-15);
+  EXPECT_LT((GustVelocity_W(gust, 5.7) - a).norm(), 1e-15);
+  EXPECT_LT((GustVelocity_W(gust, 6.0) - a).norm(), 1e-15);
+  EXPECT_LT((GustVelocity_W(gust, 7.0) - 0.5 * a).norm(), 1e-15);
+  EXPECT_LT(GustVelocity_W(gust, 8.0).norm(), 1e-15);
+  EXPECT_EQ(GustVelocity_W(gust, 9.0), Eigen::Vector3d::Zero());
+  // continuous and never beyond the amplitude
+  Eigen::Vector3d last = Eigen::Vector3d::Zero();
+  for (double t = 2.0; t < 9.0; t += 0.001) {
+    const Eigen::Vector3d v = GustVelocity_W(gust, t);
+    EXPECT_LT((v - last).norm(), M_PI / 2.0 * a.norm() / gust.rise_s * 0.001 + 1e-12) << t;
+    EXPECT_LE(v.norm(), a.norm() + 1e-12);
+    last = v;
   }
 }
 

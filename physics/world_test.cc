@@ -504,6 +504,7 @@ TEST(CommandLink, IsReadFromAVehicleEntryAndChecked) {
 TEST(Air, AFallingIapReachesTheTerminalVelocityOfItsDragArea) {
   const double area_m2 = 0.945, density = 1.225;
   SimulationConfig config;
+  config.air.enabled = true;
   config.world.ground = false;
   auto sim = UnpoweredThreeStar(config, Eigen::Vector3d::Zero(), area_m2);
   // no ground, no wind: the IAP falls, its rotors give nothing
@@ -520,6 +521,7 @@ TEST(Air, AFallingIapReachesTheTerminalVelocityOfItsDragArea) {
 TEST(Air, AFreeIapIsCarriedAlongByTheWindAsQuadraticDragPredicts) {
   const double area_m2 = 0.05, density = 1.225, wind_mps = 3.0;
   SimulationConfig config;
+  config.air.enabled = true;
   config.world.ground = false;
   config.world.gravity_mps2 = 0.0;
   config.air.wind_W_mps = Eigen::Vector3d(wind_mps, 0.0, 0.0);
@@ -546,6 +548,7 @@ TEST(Air, AFreeIapIsCarriedAlongByTheWindAsQuadraticDragPredicts) {
 // intensity for the vehicle's height, the same for a seed.
 TEST(Air, TurbulentWindVariesAboutTheMeanAndRepeatsForASeed) {
   SimulationConfig config;
+  config.air.enabled = true;
   config.air.wind_W_mps = Eigen::Vector3d(0.0, 4.0, 0.0);  // toward the east
   config.air.turbulence = true;
   config.air.w20_mps = 7.72;
@@ -567,20 +570,137 @@ TEST(Air, TurbulentWindVariesAboutTheMeanAndRepeatsForASeed) {
   EXPECT_GT((winds[0].front() - winds[0].back()).norm(), 1e-3);
 }
 
+// The hovering three-star's k_f ω² at its trim speed, per rotor.
+double HoverRotorThrust_N(const Simulation& sim) {
+  const model::RotorSet& rotors = sim.vehicle(0).vehicle.sub_aircraft[0].rotors;
+  const double speed = sim.output(0).sub_aircraft[0].rotor_speeds_rad_s[0];
+  return rotors.thrust_coefficient * speed * speed;
+}
+
+TEST(Air, WithoutAnAirBlockNothingAerodynamicActs) {
+  SimulationConfig config;
+  config.air.wind_W_mps = Eigen::Vector3d(5.0, 0.0, 0.0);  // not enabled: the paper's still, ideal air
+  auto sim = UnpoweredThreeStar(config, Eigen::Vector3d(0.0, 0.0, -0.3), 0.05);
+  sim->Step();
+  EXPECT_EQ(sim->output(0).wind_W_mps, Eigen::Vector3d::Zero());
+  EXPECT_EQ(sim->output(0).air_force_W_N, Eigen::Vector3d::Zero());
+}
+
+// Each rotor's thrust in ground effect against Cheeseman–Bennett at z/R = 0.5 … 4, over the ground plane and
+// over a static slab below one sub-aircraft only (the F450's 10" propellers, R = 0.127 m). The three-star
+// hovers level with its hubs 0.07 m below the platform's origin.
+TEST(Air, GroundEffectRaisesEachRotorsThrustAsCheesemanBennettPredicts) {
+  const double radius_m = 0.127;
+  for (const double z_over_r : {0.5, 1.0, 2.0, 4.0}) {
+    SCOPED_TRACE(z_over_r);
+    SimulationConfig config;
+    config.air.enabled = true;
+    config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -z_over_r * radius_m - 0.07)));
+    Simulation sim(config);
+    const double thrust_N = HoverRotorThrust_N(sim);
+    sim.Step();
+    const double expected = 1.0 / (1.0 - std::pow(1.0 / (4.0 * z_over_r), 2));
+    for (const SubAircraftOutput& sub : sim.output(0).sub_aircraft) {
+      for (int j = 0; j < 4; ++j) EXPECT_NEAR(sub.thrust_ratio[j], expected, 1e-9);
+      EXPECT_NEAR(sub.thrust_W_N.norm(), 4.0 * thrust_N * expected, 1e-9);
+    }
+  }
+  // no ground; a 1 m slab whose top is 2 R below the hubs, under sub-aircraft 1 (x = 0.48 m) only
+  SimulationConfig config;
+  config.air.enabled = true;
+  config.world.ground = false;
+  const double top_z_m = -2.0 + 0.07 + 2.0 * radius_m;
+  config.world.objects = {
+      Box("slab", Eigen::Vector3d(0.5, 0.6, 1.0), Eigen::Vector3d(0.48, 0.0, top_z_m + 0.5))};
+  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -2.0)));
+  Simulation sim(config);
+  sim.Step();
+  for (int j = 0; j < 4; ++j) {
+    EXPECT_NEAR(sim.output(0).sub_aircraft[0].thrust_ratio[j], 64.0 / 63.0, 1e-6);  // within Bullet's margin
+    EXPECT_EQ(sim.output(0).sub_aircraft[1].thrust_ratio[j], 1.0);
+    EXPECT_EQ(sim.output(0).sub_aircraft[2].thrust_ratio[j], 1.0);
+  }
+  // switched off, the same hover sees none
+  config.air.ground_effect = false;
+  Simulation off(config);
+  off.Step();
+  EXPECT_EQ(off.output(0).sub_aircraft[0].thrust_ratio[0], 1.0);
+}
+
+// A hovering IAP in a steady wind: every rotor's drag is ω c_D times the wind, along it (RotorS' model with
+// the F450's published coefficient); body drag is off for this (no drag areas).
+TEST(Air, RotorDragOfAHoveringIapInWindIsTheSumOfItsRotors) {
+  SimulationConfig config;
+  config.air.enabled = true;
+  config.air.wind_W_mps = Eigen::Vector3d(3.0, -1.0, 0.0);
+  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -3.0)));
+  Simulation sim(config);
+  const double speed = sim.output(0).sub_aircraft[0].rotor_speeds_rad_s[0];
+  sim.Step();
+  const Eigen::Vector3d expected_W = 12.0 * speed * 8.06428e-5 * config.air.wind_W_mps;
+  EXPECT_LT((sim.output(0).air_force_W_N - expected_W).norm(), 1e-12)
+      << sim.output(0).air_force_W_N.transpose();
+  for (const SubAircraftOutput& sub : sim.output(0).sub_aircraft) {
+    EXPECT_LT((sub.air_force_W_N - expected_W / 3.0).norm(), 1e-12);
+  }
+  config.air.rotor_drag = false;
+  Simulation off(config);
+  off.Step();
+  EXPECT_EQ(off.output(0).air_force_W_N, Eigen::Vector3d::Zero());
+}
+
+TEST(Air, DiscreteGustsAddToTheWindOnTheirSchedule) {
+  SimulationConfig config;
+  config.air.enabled = true;
+  config.world.ground = false;
+  config.air.wind_W_mps = Eigen::Vector3d(1.0, 0.0, 0.0);
+  DiscreteGust gust;
+  gust.start_s = 0.1;
+  gust.rise_s = 0.2;
+  gust.hold_s = 0.05;
+  gust.amplitude_W_mps = Eigen::Vector3d(0.0, 3.0, -1.0);
+  config.air.gusts = {gust, gust};
+  config.air.gusts[1].start_s = 0.3;  // overlapping: they add
+  auto sim = UnpoweredThreeStar(config, Eigen::Vector3d::Zero(), 0.02);
+  for (int k = 0; k < 800; ++k) {
+    const double t_s = k * 0.001;
+    sim->Step();
+    const Eigen::Vector3d expected = config.air.wind_W_mps + GustVelocity_W(config.air.gusts[0], t_s) +
+                                     GustVelocity_W(config.air.gusts[1], t_s);
+    ASSERT_LT((sim->output(0).wind_W_mps - expected).norm(), 1e-12) << t_s;
+  }
+  EXPECT_EQ(sim->output(0).wind_W_mps, config.air.wind_W_mps);  // both over
+}
+
 TEST(Air, IsReadFromThePhysicsParamsAndChecked) {
   const std::string vehicles = "vehicles:\n  - {name: iap, file: " + std::string(IAPSIM_SOURCE_DIR) +
                                "/configs/vehicles/three_star.yaml}\n";
   bridge::YamlMap params(
-      YAML::Load(vehicles +
-                 "air: {density_kgpm3: 1.1, wind_W_mps: [3, -1, 0], turbulence: {w20_mps: 15.4}}\n"),
+      YAML::Load(
+          vehicles +
+          "air: {density_kgpm3: 1.1, wind_W_mps: [3, -1, 0], turbulence: {w20_mps: 15.4},\n"
+          "      rotor_drag: false, gusts: [{start_s: 2, rise_s: 0.5, amplitude_W_mps: [0, 4, 0]}]}\n"),
       "test.yaml");
   const AirConfig air = ReadPhysicsConfig(params, "test.yaml", 0.001).simulation.air;
+  EXPECT_TRUE(air.enabled);
+  EXPECT_TRUE(air.body_drag);
+  EXPECT_FALSE(air.rotor_drag);
+  EXPECT_TRUE(air.ground_effect);
+  ASSERT_EQ(air.gusts.size(), 1u);
+  EXPECT_EQ(air.gusts[0].start_s, 2.0);
+  EXPECT_EQ(air.gusts[0].rise_s, 0.5);
+  EXPECT_EQ(air.gusts[0].hold_s, 0.0);
+  EXPECT_EQ(air.gusts[0].amplitude_W_mps, Eigen::Vector3d(0.0, 4.0, 0.0));
+  bridge::YamlMap still(YAML::Load(vehicles), "test.yaml");
+  EXPECT_FALSE(ReadPhysicsConfig(still, "test.yaml", 0.001).simulation.air.enabled);
   EXPECT_EQ(air.density_kgpm3, 1.1);
   EXPECT_EQ(air.wind_W_mps, Eigen::Vector3d(3.0, -1.0, 0.0));
   EXPECT_TRUE(air.turbulence);
   EXPECT_EQ(air.w20_mps, 15.4);
   for (const std::string bad :
-       {"{density_kgpm3: -1}", "{wind_W_mps: [3, 0]}", "{turbulence: {model: von_karman}}", "{gusts: 1}"}) {
+       {"{density_kgpm3: -1}", "{wind_W_mps: [3, 0]}", "{turbulence: {model: von_karman}}", "{gusts: 1}",
+        "{gusts: [{start_s: 1, rise_s: 0, amplitude_W_mps: [1, 0, 0]}]}",
+        "{gusts: [{start_s: 1, rise_s: 1}]}", "{ground_effect: maybe}"}) {
     SCOPED_TRACE(bad);
     bridge::YamlMap wrong(YAML::Load(vehicles + "air: " + bad + "\n"), "test.yaml");
     try {
