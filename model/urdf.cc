@@ -4,8 +4,10 @@
 #include <urdf_parser/urdf_parser.h>
 
 #include <charconv>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <queue>
 #include <set>
 #include <sstream>
@@ -83,19 +85,54 @@ void AddLink(tinyxml2::XMLElement* robot, const std::string& name, const MassPro
   }
 }
 
-void AddJoint(tinyxml2::XMLElement* robot, const std::string& name, const char* type,
-              const std::string& parent, const std::string& child, const Eigen::Vector3d& xyz,
-              const Eigen::Vector3d& rpy) {
+tinyxml2::XMLElement* AddJoint(tinyxml2::XMLElement* robot, const std::string& name, const char* type,
+                               const std::string& parent, const std::string& child,
+                               const Eigen::Vector3d& xyz, const Eigen::Vector3d& rpy) {
   auto* joint = robot->InsertNewChildElement("joint");
   joint->SetAttribute("name", name.c_str());
   joint->SetAttribute("type", type);
   joint->InsertNewChildElement("parent")->SetAttribute("link", parent.c_str());
   joint->InsertNewChildElement("child")->SetAttribute("link", child.c_str());
   AddOrigin(joint, xyz, rpy);
+  return joint;
 }
 
 [[noreturn]] void Fail(const std::string& source, const std::string& what) {
   throw std::invalid_argument(source + ": " + what);
+}
+
+void AddResistance(tinyxml2::XMLElement* joint, const JointResistance& resistance) {
+  if (resistance.viscous_Nms_per_rad > 0.0 || resistance.coulomb_Nm > 0.0) {
+    auto* dynamics = joint->InsertNewChildElement("dynamics");
+    dynamics->SetAttribute("damping", resistance.viscous_Nms_per_rad);
+    dynamics->SetAttribute("friction", resistance.coulomb_Nm);
+  }
+  if (resistance.max_tilt_rad > 0.0)
+    joint->InsertNewChildElement("limit")->SetAttribute("upper", resistance.max_tilt_rad);
+}
+
+// A spherical joint's <dynamics> and <limit>; removes the limit (urdfdom takes none on a floating joint).
+JointResistance ReadResistance(tinyxml2::XMLElement* joint, const std::string& source) {
+  JointResistance out;
+  const std::string where =
+      "line " + std::to_string(joint->GetLineNum()) + ": joint '" + joint->Attribute("name") + "': ";
+  if (auto* dynamics = joint->FirstChildElement("dynamics")) {
+    if (dynamics->QueryDoubleAttribute("damping", &out.viscous_Nms_per_rad) ==
+            tinyxml2::XML_WRONG_ATTRIBUTE_TYPE ||
+        dynamics->QueryDoubleAttribute("friction", &out.coulomb_Nm) == tinyxml2::XML_WRONG_ATTRIBUTE_TYPE ||
+        !(out.viscous_Nms_per_rad >= 0.0 && out.coulomb_Nm >= 0.0 && std::isfinite(out.viscous_Nms_per_rad) &&
+          std::isfinite(out.coulomb_Nm))) {
+      Fail(source, where + "<dynamics> expects damping (N·m·s/rad) and friction (N·m), each >= 0");
+    }
+  }
+  if (auto* limit = joint->FirstChildElement("limit")) {
+    if (limit->QueryDoubleAttribute("upper", &out.max_tilt_rad) != tinyxml2::XML_SUCCESS ||
+        !(out.max_tilt_rad > 0.0 && out.max_tilt_rad < M_PI)) {
+      Fail(source, where + "<limit upper> of a spherical joint is its largest tilt, expected in (0, pi) rad");
+    }
+    joint->DeleteChild(limit);
+  }
+  return out;
 }
 
 Eigen::Vector3d ToEigen(const urdf::Vector3& v) { return Eigen::Vector3d(v.x, v.y, v.z); }
@@ -193,8 +230,10 @@ std::string GenerateUrdf(const Vehicle& vehicle) {
   }
   for (const auto& sub : vehicle.sub_aircraft) {
     AddLink(robot, sub.name, sub.mass, sub.collision, sub.mesh);
-    AddJoint(robot, sub.name + "_joint", sub.joint == JointType::kSpherical ? "spherical" : "fixed",
-             "platform", sub.name, sub.joint_P_m, Eigen::Vector3d(0.0, 0.0, sub.initial_yaw_rad));
+    auto* joint =
+        AddJoint(robot, sub.name + "_joint", sub.joint == JointType::kSpherical ? "spherical" : "fixed",
+                 "platform", sub.name, sub.joint_P_m, Eigen::Vector3d(0.0, 0.0, sub.initial_yaw_rad));
+    if (sub.joint == JointType::kSpherical) AddResistance(joint, sub.joint_resistance);
   }
   tinyxml2::XMLPrinter printer;
   doc.Print(&printer);
@@ -209,14 +248,14 @@ MultibodyDescription ParseUrdf(const std::string& xml, const std::string& source
   }
   auto* robot = doc.FirstChildElement("robot");
   if (!robot) Fail(source, "no <robot> element");
-  std::set<std::string> spherical;
+  std::map<std::string, JointResistance> spherical;
   for (auto* joint = robot->FirstChildElement("joint"); joint; joint = joint->NextSiblingElement("joint")) {
     const char* name = joint->Attribute("name");
     const char* type = joint->Attribute("type");
     if (!name || !type)
       Fail(source, "line " + std::to_string(joint->GetLineNum()) + ": <joint> needs name and type");
     if (std::string(type) == "spherical") {
-      spherical.insert(name);
+      spherical[name] = ReadResistance(joint, source);
       joint->SetAttribute("type", "floating");
     } else if (std::string(type) == "floating") {
       Fail(source, "line " + std::to_string(joint->GetLineNum()) + ": joint '" + name +
@@ -261,6 +300,7 @@ MultibodyDescription ParseUrdf(const std::string& xml, const std::string& source
       j.name = joint->name;
       if (joint->type == urdf::Joint::FLOATING && spherical.count(joint->name)) {
         j.type = JointType::kSpherical;
+        j.resistance = spherical.at(joint->name);
       } else if (joint->type == urdf::Joint::FIXED) {
         j.type = JointType::kFixed;
       } else {

@@ -5,7 +5,11 @@
 // URDF has no spherical joint and urdfdom rejects unknown joint types. iapsim accepts type="spherical"
 // (RaiSim's convention, which the seed paper's engine used) through one pre-parse step: the XML is read with
 // tinyxml2, every spherical joint is rewritten to "floating" and remembered, then urdfdom parses the result.
-// Floating joints of the original file remain an error: a vehicle has one floating base.
+// Floating joints of the original file remain an error: a vehicle has one floating base. A spherical joint's
+// friction is URDF's own <dynamics damping="N·m·s/rad" friction="N·m"/>, and its cone limit is
+// <limit upper="rad"/>, the largest tilt of the child's z axis (as MuJoCo's ball-joint range, of the tilt
+// only); the pre-parse step reads both and removes the limit, which urdfdom does not take on a floating
+// joint.
 //
 // URDF has no cone either (docking parts need one, seed §IV-E). iapsim writes <cone radius="R" length="L"/>,
 // named after SDFormat's cone, with Shape's convention (along z, centred on half its length, apex toward +z);
@@ -39,6 +43,8 @@ struct JointDescription {
   int child = 0;                                              // index into links
   Eigen::Vector3d origin_parent_m = Eigen::Vector3d::Zero();  // child frame origin in the parent frame
   Eigen::Vector3d rpy_parent_rad = Eigen::Vector3d::Zero();   // child frame orientation in the parent frame
+  // spherical: <dynamics damping friction> and <limit upper> (the cone's half angle, rad)
+  JointResistance resistance;
 };
 
 struct MultibodyDescription {

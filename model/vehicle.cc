@@ -198,6 +198,21 @@ void ReadSubAircraft(YamlMap& map, SubAircraft* sub) {
   std::string joint = sub->joint == JointType::kFixed ? "fixed" : "spherical";
   map.OptionalChoice("joint", &joint, {"spherical", "fixed"});
   sub->joint = joint == "fixed" ? JointType::kFixed : JointType::kSpherical;
+  if (map.Has("joint_friction")) {
+    YamlMap friction = map.Map("joint_friction");
+    friction.OptionalInRange("viscous_Nms_per_rad", &sub->joint_resistance.viscous_Nms_per_rad, 0.0, 100.0);
+    friction.OptionalInRange("coulomb_Nm", &sub->joint_resistance.coulomb_Nm, 0.0, 100.0);
+    friction.Finish();
+  }
+  if (map.Has("joint_max_tilt_deg")) {
+    double tilt_deg = 0.0;
+    map.Optional("joint_max_tilt_deg", &tilt_deg);
+    if (!(tilt_deg > 0.0 && tilt_deg < 180.0)) {
+      map.Fail("joint_max_tilt_deg",
+               "expected the largest tilt of the sub-aircraft's z axis, in (0, 180) deg");
+    }
+    sub->joint_resistance.max_tilt_rad = tilt_deg * kDegToRad;
+  }
   OptionalShapes(map, "collision", &sub->collision);
   map.Optional("mesh", &sub->mesh);
   OptionalDragArea(map, &sub->drag_area_B_m2);

@@ -49,6 +49,16 @@ struct Tool {
 
 enum class JointType { kSpherical, kFixed };
 
+/// What a spherical joint resists (all zero: an ideal, frictionless ball joint with no limit, as the seed).
+/// Friction torques oppose the child's angular velocity relative to the parent: viscous c·ω and Coulomb
+/// τ_c·ω/|ω| (the MuJoCo `damping` and `frictionloss` of a ball joint, the latter isotropic here). The cone
+/// limit bounds the tilt of the child's z axis from its direction at the zero joint position; twist is free.
+struct JointResistance {
+  double viscous_Nms_per_rad = 0.0;
+  double coulomb_Nm = 0.0;
+  double max_tilt_rad = 0.0;  // 0: no limit
+};
+
 /// The rotors of one sub-aircraft: thrust k_f·ω² along −z_S at each hub, drag torque k_m·ω² about z_S,
 /// first-order motor speed dynamics with saturation.
 struct RotorSet {
@@ -84,6 +94,7 @@ struct SubAircraft {
   std::string name;
   MassProperties mass;  // CoM at the joint (seed §III-A) unless com_B_m says
   JointType joint = JointType::kSpherical;
+  JointResistance joint_resistance;                     // spherical joints only
   Eigen::Vector3d joint_P_m = Eigen::Vector3d::Zero();  // d_i: joint (= CoM) position in P
   double initial_yaw_rad = 0.0;                         // initial yaw of S_i relative to P
   RotorSet rotors;

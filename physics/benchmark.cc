@@ -34,6 +34,19 @@ double MeasureStepsPerSecond(Simulation* simulation, double min_seconds) {
   return Rate([simulation] { simulation->Step(); }, min_seconds);
 }
 
+double MeasureEpisodeStepsPerSecond(const SimulationConfig& config, int episode_steps, double min_seconds) {
+  int64_t steps = 0;
+  double elapsed = 0.0;
+  while (elapsed < min_seconds) {
+    Simulation simulation(config);
+    const auto start = Clock::now();
+    for (int k = 0; k < episode_steps; ++k) simulation.Step();
+    elapsed += std::chrono::duration<double>(Clock::now() - start).count();
+    steps += episode_steps;
+  }
+  return steps / elapsed;
+}
+
 double MeasureBareMultibodyStepsPerSecond(const model::Vehicle& vehicle, int links, double min_seconds) {
   btDefaultCollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher(&collision_config);

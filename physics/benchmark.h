@@ -10,6 +10,11 @@ namespace iapsim::physics {
 /// Steps `simulation` for at least `min_seconds` of wall time (after a warm-up) and returns steps/s.
 double MeasureStepsPerSecond(Simulation* simulation, double min_seconds);
 
+/// Steps fresh simulations of `config` for `episode_steps` each, for at least `min_seconds` of stepping
+/// (construction not counted), and returns steps/s: a flight that is not controlled in position stays the
+/// flight it started as (in wind it would drift into the ground or its joints' limits given time).
+double MeasureEpisodeStepsPerSecond(const SimulationConfig& config, int episode_steps, double min_seconds);
+
 /// The same for a bare btMultiBody: a base and `links` spherical links with the masses of `vehicle`'s
 /// platform and first sub-aircraft, constant link forces, gravity, 1 ms steps.
 double MeasureBareMultibodyStepsPerSecond(const model::Vehicle& vehicle, int links, double min_seconds);

@@ -16,6 +16,7 @@
 #include "model/mesh.h"
 #include "physics/internal/bullet_eigen.h"
 #include "physics/internal/collision_configuration.h"
+#include "physics/internal/cone_limit.h"
 #include "physics/internal/contact_solver.h"
 
 namespace iapsim::physics {
@@ -147,6 +148,26 @@ struct MultibodyWorld::Impl {
   // before the broadphase that calls the filter, so both outlive it
   std::vector<Latch> latches;
   LatchPairFilter latch_filter{&latches};
+
+  // friction of a spherical joint (model::JointResistance), applied as joint torques before each step
+  struct JointFriction {
+    btMultiBody* multibody;
+    int link;
+    double viscous_Nms_per_rad, coulomb_Nm;
+    double stiction_speed_rad_s;  // Coulomb friction grows linearly up to this relative speed
+  };
+  std::vector<JointFriction> joint_frictions;
+  std::vector<std::unique_ptr<internal::ConeLimit>> cone_limits;
+
+  void ApplyJointFriction() {
+    for (const JointFriction& joint : joint_frictions) {
+      const btScalar* rate = joint.multibody->getJointVelMultiDof(joint.link);  // ω relative, child frame
+      const double speed = std::sqrt(rate[0] * rate[0] + rate[1] * rate[1] + rate[2] * rate[2]);
+      const double per_rate =
+          joint.viscous_Nms_per_rad + joint.coulomb_Nm / std::max(speed, joint.stiction_speed_rad_s);
+      for (int i = 0; i < 3; ++i) joint.multibody->addJointTorqueMultiDof(joint.link, i, -per_rate * rate[i]);
+    }
+  }
   internal::CollisionConfiguration collision_config;
   btCollisionDispatcher dispatcher{&collision_config};
   btDbvtBroadphase broadphase;
@@ -232,6 +253,7 @@ struct MultibodyWorld::Impl {
     for (auto& latch : latches) {
       if (latch.closed) world.removeMultiBodyConstraint(latch.constraint.get());
     }
+    for (auto& cone : cone_limits) world.removeMultiBodyConstraint(cone.get());
     for (auto& body : rigid_bodies) world.removeRigidBody(body.get());
     for (auto& collider : colliders) world.removeCollisionObject(collider.get());
     for (auto& multibody : multibodies) world.removeMultiBody(multibody.get());
@@ -648,6 +670,8 @@ int MultibodyWorld::AddMultibody(const std::string& name, const model::Multibody
   auto multibody = std::make_unique<btMultiBody>(links - 1, root.mass.mass_kg, Bt(frames[0].inertia_C),
                                                  /*fixedBase=*/false, /*canSleep=*/false);
   btMultiBody* mb = multibody.get();
+  std::vector<Impl::JointFriction> frictions;  // kept once the multibody is in the world
+  std::vector<std::unique_ptr<internal::ConeLimit>> cones;
   for (size_t j = 0; j < description.joints.size(); ++j) {
     const auto& joint = description.joints[j];
     const PrincipalFrame& parent = frames[joint.parent];
@@ -666,6 +690,35 @@ int MultibodyWorld::AddMultibody(const std::string& name, const model::Multibody
     if (joint.type == model::JointType::kSpherical) {
       mb->setupSpherical(static_cast<int>(j), mass, Bt(child.inertia_C), parent_link, rotation,
                          Bt(parent_com_to_pivot), Bt(pivot_to_child_com), /*disableParentCollision=*/true);
+      const model::JointResistance& resistance = joint.resistance;
+      if (resistance.viscous_Nms_per_rad > 0.0 || resistance.coulomb_Nm > 0.0) {
+        // applied explicitly, so the torque's slope over the relative speed, times the step over the
+        // child's smallest inertia (the relative motion's inertia is at most that), must stay below 1 for the
+        // speed to decay without overshoot: the Coulomb part's linear range widens to keep its half of that
+        // (a regularised Coulomb friction, as Drake's stiction tolerance)
+        const double inertia_kgm2 = child.inertia_C.minCoeff();
+        if (resistance.viscous_Nms_per_rad * impl.step_s >= 0.5 * inertia_kgm2) {
+          throw std::invalid_argument(description.name + ": joint '" + joint.name + "': viscous friction " +
+                                      std::to_string(resistance.viscous_Nms_per_rad) +
+                                      " N·m·s/rad is too large for a " + std::to_string(impl.step_s) +
+                                      " s step (at most half the child's inertia over the step)");
+        }
+        constexpr double kStictionSpeed_rad_s = 0.01;
+        frictions.push_back(
+            {mb, static_cast<int>(j), resistance.viscous_Nms_per_rad, resistance.coulomb_Nm,
+             std::max(kStictionSpeed_rad_s, 2.0 * resistance.coulomb_Nm * impl.step_s / inertia_kgm2)});
+      }
+      if (resistance.max_tilt_rad > 0.0) {
+        if (description.links[joint.child].collision.empty()) {  // Bullet islands a constraint by colliders
+          throw std::invalid_argument(description.name + ": joint '" + joint.name +
+                                      "' has a cone limit, so its child needs a collision shape");
+        }
+        // the child's z axis, and where it points at the zero joint position, in Bullet's frames
+        const Eigen::Vector3d axis_C = R_CcC.transpose() * Eigen::Vector3d::UnitZ();
+        const Eigen::Vector3d rest_parent_C = R_PpC.transpose() * R_PpCc * Eigen::Vector3d::UnitZ();
+        cones.push_back(std::make_unique<internal::ConeLimit>(mb, static_cast<int>(j), Bt(axis_C),
+                                                              Bt(rest_parent_C), resistance.max_tilt_rad));
+      }
     } else {
       mb->setupFixed(static_cast<int>(j), mass, Bt(child.inertia_C), parent_link, rotation,
                      Bt(parent_com_to_pivot), Bt(pivot_to_child_com));
@@ -734,6 +787,11 @@ int MultibodyWorld::AddMultibody(const std::string& name, const model::Multibody
   impl.local_origin.resize(links);
   mb->updateCollisionObjectWorldTransforms(impl.world_to_local, impl.local_origin);
   impl.UpdateStates(true);
+  impl.joint_frictions.insert(impl.joint_frictions.end(), frictions.begin(), frictions.end());
+  for (auto& cone : cones) {
+    impl.world.addMultiBodyConstraint(cone.get());
+    impl.cone_limits.push_back(std::move(cone));
+  }
   return root_id;
 }
 
@@ -854,6 +912,7 @@ bool MultibodyWorld::latched(int latch) const { return impl_->latches.at(latch).
 void MultibodyWorld::Step() {
   Impl& impl = *impl_;
   impl.WakeOnChangedLoads();
+  impl.ApplyJointFriction();
   impl.world.stepSimulation(impl.step_s, 0);                   // exactly one step of step_s (no accumulator)
   for (auto& rigid : impl.rigid_bodies) rigid->clearForces();  // multibodies clear theirs in the step
   ++impl.step_count;

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -495,6 +497,214 @@ TEST(CommandLink, IsReadFromAVehicleEntryAndChecked) {
       ADD_FAILURE() << "accepted";
     } catch (const bridge::ConfigError& e) {
       EXPECT_NE(std::string(e.what()).find("command_link"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// Joint friction and cone limits (model::JointResistance). A platform of 10⁶ kg and 10⁶ kg·m² does not
+// move, so a sub-aircraft turns about its joint with its own inertia: ω' = (τ_drive − τ_friction) / I.
+struct AnchoredSub {
+  std::unique_ptr<Simulation> sim;
+  int sub_body = 0;
+  double twist_inertia_kgm2 = 0.0;  // the F450's I_zz
+};
+
+AnchoredSub AnchoredThreeStar(const model::JointResistance& resistance) {
+  SimulationConfig config;
+  config.world.ground = false;
+  config.world.gravity_mps2 = 0.0;
+  VehicleSpec spec = Spec("three_star", Eigen::Vector3d::Zero());
+  spec.vehicle.platform.mass_kg = 1e6;
+  spec.vehicle.platform.inertia_B_kgm2 = 1e6 * Eigen::Matrix3d::Identity();
+  for (auto& sub : spec.vehicle.sub_aircraft) sub.joint_resistance = resistance;
+  spec.description = model::ParseUrdf(model::GenerateUrdf(spec.vehicle), "anchored.urdf");
+  spec.initial_rotors = InitialRotors::kIdle;
+  config.vehicles.push_back(spec);
+  AnchoredSub out;
+  out.sim = std::make_unique<Simulation>(config);
+  SubAircraftSetpoint off;
+  off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  for (int s = 0; s < 3; ++s) out.sim->SetCommand(0, s, off);
+  out.sub_body = out.sim->output(0).sub_aircraft_bodies[0];
+  out.twist_inertia_kgm2 = spec.vehicle.sub_aircraft[0].mass.inertia_B_kgm2(2, 2);
+  return out;
+}
+
+// The sub-aircraft's twist rate about its z axis relative to the platform.
+double TwistRate_rad_s(const Simulation& sim, int sub_body) {
+  const BodyState& sub = sim.world().body(sub_body);
+  const BodyState& platform = sim.world().body(sim.output(0).platform_body);
+  return (sub.q_WB * Eigen::Vector3d::UnitZ()).dot(sub.w_WB_W - platform.w_WB_W);
+}
+
+TEST(Joints, ViscousFrictionGivesTheFirstOrderResponseOfItsCoefficient) {
+  model::JointResistance resistance;
+  resistance.viscous_Nms_per_rad = 0.05;
+  AnchoredSub a = AnchoredThreeStar(resistance);
+  const double drive_Nm = 0.1, time_constant_s = a.twist_inertia_kgm2 / 0.05;  // 0.496 s
+  for (int k = 1; k <= 2000; ++k) {
+    const BodyState& sub = a.sim->world().body(a.sub_body);
+    a.sim->mutable_world().AddJointTorque_W(a.sub_body, sub.q_WB * Eigen::Vector3d(0.0, 0.0, drive_Nm));
+    a.sim->Step();
+    if (k % 250 != 0) continue;
+    const double expected = drive_Nm / 0.05 * (1.0 - std::exp(-k * 0.001 / time_constant_s));
+    // explicit friction on a 1 ms step: first order in the step, 0.1 % of the time constant
+    EXPECT_NEAR(TwistRate_rad_s(*a.sim, a.sub_body), expected, 2e-3 * drive_Nm / 0.05) << k;
+  }
+}
+
+TEST(Joints, CoulombFrictionHoldsBelowItsTorqueAndSlipsAboveIt) {
+  model::JointResistance resistance;
+  resistance.coulomb_Nm = 0.05;
+  {  // 80 % of the friction torque: it holds (creeping below the regularisation's 0.01 rad/s)
+    AnchoredSub a = AnchoredThreeStar(resistance);
+    for (int k = 0; k < 1000; ++k) {
+      const BodyState& sub = a.sim->world().body(a.sub_body);
+      a.sim->mutable_world().AddJointTorque_W(a.sub_body, sub.q_WB * Eigen::Vector3d(0.0, 0.0, 0.04));
+      a.sim->Step();
+    }
+    EXPECT_LT(std::abs(TwistRate_rad_s(*a.sim, a.sub_body)), 0.01);
+  }
+  // twice the friction torque: slips with ω' = (τ − τ_c) / I
+  AnchoredSub a = AnchoredThreeStar(resistance);
+  for (int k = 1; k <= 1000; ++k) {
+    const BodyState& sub = a.sim->world().body(a.sub_body);
+    a.sim->mutable_world().AddJointTorque_W(a.sub_body, sub.q_WB * Eigen::Vector3d(0.0, 0.0, 0.1));
+    a.sim->Step();
+  }
+  const double expected = (0.1 - 0.05) / a.twist_inertia_kgm2 * 1.0;  // 2.02 rad/s after 1 s
+  EXPECT_NEAR(TwistRate_rad_s(*a.sim, a.sub_body), expected, 0.01 * expected);
+}
+
+// The cone limit stops the tilt at its angle whichever way the sub-aircraft is pushed, and leaves twist free.
+TEST(Joints, AConeLimitStopsTheTiltAndLeavesTheTwistFree) {
+  model::JointResistance resistance;
+  resistance.max_tilt_rad = 30.0 * M_PI / 180.0;
+  for (const Eigen::Vector3d& direction :
+       {Eigen::Vector3d(1.0, 0.0, 0.0), Eigen::Vector3d(0.6, -0.8, 0.0), Eigen::Vector3d(0.0, 1.0, 0.0)}) {
+    SCOPED_TRACE(direction.transpose());
+    AnchoredSub a = AnchoredThreeStar(resistance);
+    double max_tilt_rad = 0.0, tilt_rad = 0.0;
+    for (int k = 0; k < 2000; ++k) {
+      const BodyState& sub = a.sim->world().body(a.sub_body);
+      // 0.2 N·m of tilting torque, in the platform's frame (= W), and 0.02 N·m of twist
+      a.sim->mutable_world().AddJointTorque_W(a.sub_body,
+                                              0.2 * direction + sub.q_WB * Eigen::Vector3d(0.0, 0.0, 0.02));
+      a.sim->Step();
+      const Eigen::Vector3d z_W = a.sim->world().body(a.sub_body).q_WB * Eigen::Vector3d::UnitZ();
+      tilt_rad = std::acos(std::clamp(z_W.z(), -1.0, 1.0));
+      max_tilt_rad = std::max(max_tilt_rad, tilt_rad);
+    }
+    std::printf("cone 30 deg: largest tilt %.3f deg, final %.3f deg\n", max_tilt_rad * 180.0 / M_PI,
+                tilt_rad * 180.0 / M_PI);
+    EXPECT_LT(max_tilt_rad, resistance.max_tilt_rad + 0.2 * M_PI / 180.0);
+    EXPECT_NEAR(tilt_rad, resistance.max_tilt_rad, 0.05 * M_PI / 180.0);
+    // twist spun up freely: ω = τ t / I = 0.02 × 2 / 0.0248 = 1.6 rad/s (within 10 %: the tilted axis)
+    EXPECT_NEAR(TwistRate_rad_s(*a.sim, a.sub_body), 0.02 * 2.0 / a.twist_inertia_kgm2, 0.16);
+  }
+  // without the limit the same push tilts it far beyond
+  AnchoredSub free = AnchoredThreeStar(model::JointResistance{});
+  for (int k = 0; k < 2000; ++k) {
+    free.sim->mutable_world().AddJointTorque_W(free.sub_body, Eigen::Vector3d(0.2, 0.0, 0.0));
+    free.sim->Step();
+  }
+  EXPECT_LT((free.sim->world().body(free.sub_body).q_WB * Eigen::Vector3d::UnitZ()).z(), std::cos(0.6));
+}
+
+// Friction and the limit act inside the vehicle: a free IAP keeps its momentum while a joint slips and
+// reaches its limit, and loses energy.
+TEST(Joints, FrictionAndLimitsAreInternalToTheVehicle) {
+  SimulationConfig config;
+  config.world.ground = false;
+  config.world.gravity_mps2 = 0.0;
+  VehicleSpec spec = Spec("three_star", Eigen::Vector3d::Zero());
+  for (auto& sub : spec.vehicle.sub_aircraft) {
+    sub.joint_resistance.viscous_Nms_per_rad = 0.01;
+    sub.joint_resistance.coulomb_Nm = 0.02;
+    sub.joint_resistance.max_tilt_rad = 0.3;
+  }
+  spec.description = model::ParseUrdf(model::GenerateUrdf(spec.vehicle), "resisting.urdf");
+  spec.initial_rotors = InitialRotors::kIdle;
+  config.vehicles.push_back(spec);
+  Simulation sim(config);
+  SubAircraftSetpoint off;
+  off.mode = SubAircraftSetpoint::Mode::kThrustTorque;
+  for (int s = 0; s < 3; ++s) sim.SetCommand(0, s, off);
+  const VehicleOutput& out = sim.output(0);
+  // the vehicle's angular momentum, and the sum of its bodies' magnitudes as the scale of its error
+  const auto angular_momentum = [&](double* scale) {
+    Eigen::Vector3d L = Eigen::Vector3d::Zero();
+    *scale = 0.0;
+    std::vector<int> bodies = out.sub_aircraft_bodies;
+    bodies.push_back(out.platform_body);
+    for (const int b : bodies) {
+      const BodyState& s = sim.world().body(b);
+      const Eigen::Matrix3d R = s.q_WB.toRotationMatrix();
+      const Eigen::Vector3d L_b = s.p_WBcom_m.cross(sim.world().mass_kg(b) * s.v_WBcom_W) +
+                                  R * sim.world().inertia_B_kgm2(b) * R.transpose() * s.w_WB_W;
+      L += L_b;
+      *scale += L_b.norm();
+    }
+    return L;
+  };
+  // spin every sub-aircraft about its own x against the platform: each reaches its limit
+  for (int k = 0; k < 1500; ++k) {
+    for (int s = 0; s < 3; ++s) {
+      const BodyState& sub = sim.world().body(out.sub_aircraft_bodies[s]);
+      sim.mutable_world().AddJointTorque_W(out.sub_aircraft_bodies[s],
+                                           sub.q_WB * Eigen::Vector3d(0.3, 0.0, 0.03));
+    }
+    sim.Step();
+  }
+  double scale = 0.0;
+  // from rest under internal torques; Bullet's semi-implicit joint integration holds momentum to O(step)
+  const Eigen::Vector3d L = angular_momentum(&scale);
+  std::printf("|L| %.2e of %.3f kg m^2/s at the limits\n", L.norm(), scale);
+  EXPECT_LT(L.norm(), 1e-3 * scale);
+  ASSERT_GT(scale, 0.01);
+  double still = 0.0;  // friction stops the relative motion; what the vehicle has left, it keeps
+  for (int k = 0; k < 2000; ++k) sim.Step();
+  EXPECT_LT((angular_momentum(&still) - L).norm(), 1e-3 * scale);
+  // friction has stopped the relative motion: the vehicle turns as one body
+  for (int s = 0; s < 3; ++s) {
+    const Eigen::Vector3d relative =
+        sim.world().body(out.sub_aircraft_bodies[s]).w_WB_W - sim.world().body(out.platform_body).w_WB_W;
+    EXPECT_LT(relative.norm(), 0.02) << s;
+  }
+}
+
+TEST(Joints, AreReadFromTheVehicleFileAndWrittenToTheUrdf) {
+  const std::string path = testing::TempDir() + "/resisting.yaml";
+  {
+    std::ofstream file(path);
+    file << "name: resisting\nplatform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04], collision: [{box: "
+            "[0.2, 0.2, 0.05]}]}\n"
+            "sub_aircraft_defaults:\n  base: "
+         << IAPSIM_SOURCE_DIR
+         << "/configs/vehicles/parts/f450.yaml\n"
+            "  joint_friction: {viscous_Nms_per_rad: 0.01, coulomb_Nm: 0.02}\n  joint_max_tilt_deg: 35\n"
+            "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n";
+  }
+  const model::Vehicle vehicle = model::LoadVehicle(path);
+  const model::MultibodyDescription description = model::ParseUrdf(model::GenerateUrdf(vehicle), "r.urdf");
+  ASSERT_EQ(description.joints.size(), 2u);
+  for (const auto& joint : description.joints) {
+    EXPECT_DOUBLE_EQ(joint.resistance.viscous_Nms_per_rad, 0.01);
+    EXPECT_DOUBLE_EQ(joint.resistance.coulomb_Nm, 0.02);
+    EXPECT_NEAR(joint.resistance.max_tilt_rad, 35.0 * M_PI / 180.0, 1e-12);
+  }
+  for (const std::string bad :
+       {"<dynamics damping=\"-1\"/>", "<limit upper=\"4\"/>", "<limit lower=\"0\"/>"}) {
+    SCOPED_TRACE(bad);
+    const std::string urdf =
+        "<robot name=\"r\"><link name=\"p\"/><link name=\"s\"/><joint name=\"j\" type=\"spherical\">"
+        "<parent link=\"p\"/><child link=\"s\"/>" +
+        bad + "</joint></robot>";
+    try {
+      model::ParseUrdf(urdf, "bad.urdf");
+      ADD_FAILURE() << "accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.urdf: line 1: joint 'j'"), std::string::npos) << e.what();
     }
   }
 }

@@ -25,6 +25,8 @@ std::string Ratio(double ratio) {
 }
 
 constexpr double kSecondsPerFigure = 1.0;
+// the air and joint models are compared over 5 s flights from the start, against still air the same way
+constexpr int kEpisodeSteps = 5000;
 
 // The vehicle with n copies of its first sub-aircraft on a circle wide enough that their boxes never touch.
 model::Vehicle WithSubAircraft(const model::Vehicle& base, int n) {
@@ -66,17 +68,19 @@ double Measure(const model::Vehicle& vehicle, bool contacts, const physics::Worl
 }
 
 // In the air as above, in a 4 m/s wind with light Dryden turbulence, drag on every part (the F450's C_d·A as
-// in the README's example), rotor drag and ground effect (issue 19's air): what the air model costs against
-// still air.
+// in the README's example), rotor drag and ground effect (issue 19's air), and joint friction and cone limits
+// (the README's example): what those models cost against still air and ideal joints.
 double MeasureInGustyAir(model::Vehicle vehicle) {
   vehicle.platform_drag_area_B_m2 = Eigen::Vector3d(0.01, 0.01, 0.04);
-  for (auto& sub : vehicle.sub_aircraft) sub.drag_area_B_m2 = Eigen::Vector3d(0.03, 0.03, 0.06);
+  for (auto& sub : vehicle.sub_aircraft) {
+    sub.drag_area_B_m2 = Eigen::Vector3d(0.03, 0.03, 0.06);
+    sub.joint_resistance = {0.005, 0.02, 35.0 * M_PI / 180.0};
+  }
   physics::SimulationConfig config = Scene(vehicle, false, {});
   config.air.enabled = true;
   config.air.wind_W_mps = Eigen::Vector3d(4.0, 0.0, 0.0);
   config.air.turbulence = true;
-  physics::Simulation simulation(config);
-  return physics::MeasureStepsPerSecond(&simulation, kSecondsPerFigure);
+  return physics::MeasureEpisodeStepsPerSecond(config, kEpisodeSteps, kSecondsPerFigure);
 }
 
 struct ContactFigures {
@@ -184,6 +188,8 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
   const double air = Measure(three_star, false);
   const double ground = Measure(three_star, true, awake);
   const double asleep = Measure(three_star, true);
+  const double still =
+      physics::MeasureEpisodeStepsPerSecond(Scene(three_star, false, {}), kEpisodeSteps, kSecondsPerFigure);
   const double gusty = MeasureInGustyAir(three_star);
   const double bare = physics::MeasureBareMultibodyStepsPerSecond(three_star, n_star, kSecondsPerFigure);
   std::printf("  %-38s %10.0f  (%.2f of bare Bullet)\n", (three_star.name + ", in the air").c_str(), air,
@@ -192,8 +198,8 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
               (three_star.name + ", resting on the ground").c_str(), ground, ground / bare, ground / air);
   std::printf("  %-38s %10.0f  (%.2f of in the air)\n", (three_star.name + ", ... asleep (default)").c_str(),
               asleep, asleep / air);
-  std::printf("  %-38s %10.0f  (%.2f of still air)\n", (three_star.name + ", in gusty air, all aero").c_str(),
-              gusty, gusty / air);
+  std::printf("  %-38s %10.0f  (%.2f of still air, ideal joints: %.0f, 5 s flights)\n",
+              (three_star.name + ", gusty air, joint friction").c_str(), gusty, gusty / still, still);
   std::printf("  %-38s %10.0f\n", "bare Bullet multibody, same size", bare);
   (*report)["physics"]["vehicle"] = three_star.name;
   (*report)["physics"]["air_steps_per_s"] = air;
@@ -201,6 +207,7 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
   (*report)["physics"]["ground_asleep_steps_per_s"] = asleep;
   (*report)["physics"]["bare_steps_per_s"] = bare;
   (*report)["physics"]["gusty_air_steps_per_s"] = gusty;
+  (*report)["physics"]["still_air_episode_steps_per_s"] = still;
   BenchContact(three_star, air, &(*report)["physics"]);
 
   std::printf("\n  %3s %12s %8s %12s %12s %14s\n", "n", "in the air", "vs bare", "on ground", "bare",
