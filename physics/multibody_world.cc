@@ -430,6 +430,10 @@ struct MultibodyWorld::Impl {
     body.rigid = rigid;
     body.mass_kg = object.mass_kg;
     body.inertia_B_kgm2 = Eig(inertia).asDiagonal();
+    btVector3 center_O;  // an object's frame is its centre of mass
+    btScalar radius_m;
+    shape->getBoundingSphere(center_O, radius_m);
+    body.radius_m = center_O.length() + radius_m;
     bodies.push_back(body);
     states.emplace_back();
     ResizeLoads();
@@ -949,6 +953,32 @@ double MultibodyWorld::StaticSurfaceDistance_m(const Eigen::Vector3d& from_W,
     if (hit.hasHit()) distance_m *= hit.m_closestHitFraction;
   }
   return distance_m;
+}
+
+bool MultibodyWorld::movable(int body) const {
+  const Impl::Body& b = impl_->bodies.at(body);
+  return b.multibody != nullptr || !b.rigid->isStaticObject();
+}
+
+double MultibodyWorld::bounding_radius_m(int body) const { return impl_->bodies.at(body).radius_m; }
+
+double MultibodyWorld::BodyRayFraction(int body, const Eigen::Vector3d& from_W,
+                                       const Eigen::Vector3d& to_W) const {
+  btCollisionObject* collider = Impl::ColliderOf(impl_->bodies.at(body));
+  if (!collider) return 1.0;
+  const btVector3 from = Bt(from_W), to = Bt(to_W);
+  btVector3 ray_min = from, ray_max = from;
+  ray_min.setMin(to);
+  ray_max.setMax(to);
+  // from the shapes: the broadphase's boxes of a new multibody are stale until its first step
+  btVector3 aabb_min, aabb_max;
+  collider->getCollisionShape()->getAabb(collider->getWorldTransform(), aabb_min, aabb_max);
+  if (!TestAabbAgainstAabb2(ray_min, ray_max, aabb_min, aabb_max)) return 1.0;
+  btCollisionWorld::ClosestRayResultCallback hit(from, to);
+  const btTransform from_pose(btQuaternion::getIdentity(), from), to_pose(btQuaternion::getIdentity(), to);
+  btCollisionWorld::rayTestSingle(from_pose, to_pose, collider, collider->getCollisionShape(),
+                                  collider->getWorldTransform(), hit);
+  return hit.hasHit() ? hit.m_closestHitFraction : 1.0;
 }
 
 bool MultibodyWorld::asleep(int body) const {

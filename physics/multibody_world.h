@@ -177,6 +177,13 @@ class MultibodyWorld {
   /// ground plane or a static object) lies, or `max_m` when none is nearer. For the air's ground effect.
   double StaticSurfaceDistance_m(const Eigen::Vector3d& from_W, const Eigen::Vector3d& direction_W,
                                  double max_m) const;
+  /// Whether `body` can move: a vehicle's link or an object with mass.
+  bool movable(int body) const;
+  /// The radius of a sphere about the body's CoM that holds its collision shapes (0 without any).
+  double bounding_radius_m(int body) const;
+  /// Where the segment from `from_W` to `to_W` first meets the collision shapes of `body`, as a fraction
+  /// of the way along it, or 1 when it misses them. For the air's downwash.
+  double BodyRayFraction(int body, const Eigen::Vector3d& from_W, const Eigen::Vector3d& to_W) const;
   /// Whether the multibody that `body` belongs to sleeps (see WorldConfig::sleep_after_s).
   bool asleep(int body) const;
   /// The sum of the last step's contact forces on `body` (from everything it touches), in W.

@@ -255,6 +255,12 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
     air.Optional("body_drag", &out.body_drag);
     air.Optional("rotor_drag", &out.rotor_drag);
     air.Optional("ground_effect", &out.ground_effect);
+    air.Optional("downwash", &out.downwash);
+    air.Optional("downwash_drag_coefficient", &out.downwash_drag_coefficient);
+    if (!(out.downwash_drag_coefficient > 0.0 && out.downwash_drag_coefficient <= 2.0)) {
+      air.Fail("downwash_drag_coefficient",
+               "expected a drag coefficient in (0, 2] (2: all the blocked momentum turned aside)");
+    }
     air.Finish();
     out.enabled = true;
   }

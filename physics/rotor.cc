@@ -15,6 +15,34 @@ double CheesemanBennettThrustRatio(double height_over_radius) {
   return 1.0 / (1.0 - image * image);
 }
 
+double WakeMomentumFlux_N(double thrust_N, double distance_m, double radius_m) {
+  return 0.5 * thrust_N * (1.0 + distance_m / std::hypot(distance_m, radius_m));
+}
+
+double WakeRadius_m(double distance_m, double radius_m) {
+  return radius_m / std::sqrt(2.0) + kWakeSpreadRate * distance_m;
+}
+
+const std::array<Eigen::Vector2d, kWakeCells>& WakeCells() {
+  static const std::array<Eigen::Vector2d, kWakeCells> cells = [] {
+    std::array<Eigen::Vector2d, kWakeCells> c;
+    c[0].setZero();
+    // ring edges at √(1/19), √(7/19) and 1 enclose 1, 7 and 19 cells' area; each cell's centre sits on the
+    // radius that splits its ring's area in two
+    const double inner = std::sqrt(4.0 / kWakeCells), outer = std::sqrt(13.0 / kWakeCells);
+    for (int k = 0; k < 6; ++k) {
+      const double angle = k * M_PI / 3.0;
+      c[1 + k] = inner * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+    }
+    for (int k = 0; k < 12; ++k) {
+      const double angle = (k + 0.5) * M_PI / 6.0;
+      c[7 + k] = outer * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+    }
+    return c;
+  }();
+  return cells;
+}
+
 Rotors::Rotors(const model::RotorSet& rotors, const Eigen::Vector3d& com_S_m)
     : set_(rotors),
       com_S_m_(com_S_m),

@@ -6,6 +6,7 @@
 // rolling moment) add to the wrench.
 
 #include <Eigen/Core>
+#include <array>
 
 #include "model/vehicle.h"
 
@@ -21,6 +22,29 @@ using RotorVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRotors, 1>;
 /// T_IGE / T_OGE = 1 / (1 − (R / 4z)²). The formula is singular at z = R/4 and was checked by its authors
 /// down to about z = R/2; below that the ratio stays at its value there, 4/3.
 double CheesemanBennettThrustRatio(double height_over_radius);
+
+/// Downwash: a rotor's wake as the slipstream of an actuator disk (momentum theory) that spreads like a
+/// round turbulent jet. On the axis of a uniformly loaded disk of radius R in hover the flow moves at
+/// w(d) = v_h (1 + d / √(d² + R²)) a distance d below it (the semi-infinite vortex cylinder; Leishman,
+/// Principles of Helicopter Aerodynamics, 2nd ed. 2006, ch. 2), contracting by continuity to R/√2 at
+/// twice the induced velocity v_h = √(T / (2ρπR²)). The slipstream's momentum flux ρ w² A_w = ρ πR² v_h w
+/// is then T (1 + d / √(d² + R²)) / 2: half the thrust at the disk, the thrust far below. Mixing with the
+/// still air widens the jet at constant momentum flux (Pope, Turbulent Flows, 2000, §5.1: the round jet's
+/// half-velocity radius grows by 0.094 per unit distance). A body in the wake takes the drag of the part of
+/// the flux it blocks: C_D / 2 times that flux.
+double WakeMomentumFlux_N(double thrust_N, double distance_m, double radius_m);
+
+/// The radius of the wake, as a top hat of the jet's centreline velocity and momentum flux, a distance d
+/// below the disk: R/√2 (the contraction is taken as immediate: it is 80 % done one radius below the disk)
+/// plus 0.08 d (0.094 d of the half-velocity radius, times √(1 / (2 ln 2)) for a top hat of the same
+/// momentum flux).
+double WakeRadius_m(double distance_m, double radius_m);
+constexpr double kWakeSpreadRate = 0.094 / 1.1774100225154747;  // √(2 ln 2)
+
+/// Cells of equal area tiling the unit disk, by their centres: one at the centre, a ring of 6 and one of
+/// 12, at the radii that halve each ring's area. The wake is sampled with one ray per cell.
+constexpr int kWakeCells = 19;
+const std::array<Eigen::Vector2d, kWakeCells>& WakeCells();
 
 class Rotors {
  public:

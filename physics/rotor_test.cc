@@ -144,6 +144,60 @@ TEST(Rotors, RotorDragAndRollingMomentFollowTheModelWithItsPublishedCoefficients
   EXPECT_NEAR(torque.z(), -4.0 * 800.0 * c_d * 0.225 * 0.225 * 2.0, 1e-14);
 }
 
+// The wake's momentum flux against an independent computation of the actuator disk's slipstream: the
+// axial velocity on the axis, summed numerically from the Biot–Savart law over the vortex rings of a
+// semi-infinite cylinder of sheet strength γ = 2 v_h shed from the disk's edge (each ring of width dζ at
+// depth ζ induces γ dζ R² / (2 (R² + (d − ζ)²)^{3/2}) at depth d), then continuity (ρ πR² v_h w) and
+// T = 2 ρ πR² v_h². Far below, the flux is the thrust: momentum theory's balance.
+TEST(Wake, MomentumFluxIsThatOfTheActuatorDisksSlipstream) {
+  const double radius_m = 0.127, thrust_N = 5.0, density = 1.225;
+  const double area_m2 = M_PI * radius_m * radius_m;
+  const double v_h = std::sqrt(thrust_N / (2.0 * density * area_m2));
+  for (const double d_over_r : {0.0, 0.25, 0.5, 1.0, 2.0, 5.0, 20.0}) {
+    SCOPED_TRACE(d_over_r);
+    // over u = (ζ − d) / R from −d/R to U by Simpson's rule, plus the tail ∫_U^∞ du / (2u³) = 1 / (4U²) to
+    // leading order
+    const double lo = -d_over_r, hi = 400.0;
+    const int n = 400000;
+    const double h = (hi - lo) / n;
+    double sum = 0.0;
+    for (int i = 0; i <= n; ++i) {
+      const double u = lo + i * h;
+      const double f = 0.5 / std::pow(1.0 + u * u, 1.5);
+      sum += (i == 0 || i == n ? 1.0 : (i % 2 == 1 ? 4.0 : 2.0)) * f;
+    }
+    const double w_mps = 2.0 * v_h * (sum * h / 3.0 + 1.0 / (4.0 * hi * hi));
+    const double flux_N = density * area_m2 * v_h * w_mps;
+    EXPECT_NEAR(WakeMomentumFlux_N(thrust_N, d_over_r * radius_m, radius_m), flux_N, 1e-7 * thrust_N);
+  }
+  EXPECT_NEAR(WakeMomentumFlux_N(thrust_N, 1e4 * radius_m, radius_m), thrust_N, 1e-8 * thrust_N);
+  // the top hat just below the disk is the contracted slipstream: area πR²/2 at 2 v_h carries the thrust
+  const double r0_m = WakeRadius_m(0.0, radius_m);
+  EXPECT_NEAR(density * M_PI * r0_m * r0_m * 4.0 * v_h * v_h, thrust_N, 1e-12);
+  // a round jet widens by 0.094 of the distance in half-velocity radius (Pope); a top hat of the same
+  // centreline velocity and momentum flux has a radius √(1 / (2 ln 2)) of it
+  EXPECT_NEAR(WakeRadius_m(10.0, radius_m) - r0_m, 10.0 * 0.094 * std::sqrt(1.0 / (2.0 * std::log(2.0))),
+              1e-12);
+}
+
+// The rays sample the wake's cross-section in cells of equal area: balanced about the axis (a uniform wake
+// on a body across all of it turns it about nothing), and with the disk's polar moment (R²/2 per unit
+// area) within 1 %, so a body across part of the wake takes close to its share of the flux and moment.
+TEST(Wake, CellsTileTheDiskEvenly) {
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  double polar = 0.0;
+  int right = 0;
+  for (const Eigen::Vector2d& cell : WakeCells()) {
+    EXPECT_LT(cell.norm(), 1.0);
+    mean += cell / kWakeCells;
+    polar += cell.squaredNorm() / kWakeCells;
+    if (cell.x() > 1e-9) ++right;
+  }
+  EXPECT_LT(mean.norm(), 1e-15);
+  EXPECT_NEAR(polar, 0.5, 0.005);
+  EXPECT_EQ(right, 9);  // the half-plane x > 0 holds 9 of the 19 cells; the centre sits on its edge
+}
+
 TEST(FlightController, AttitudeErrorGivesARateTowardTheSetpoint) {
   const model::SubAircraft sub = F450();
   Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());

@@ -72,6 +72,13 @@ Simulation::Simulation(const SimulationConfig& config)
     vehicles_.push_back(std::move(sim));
   }
 
+  for (int body = 0; body < world_.body_count(); ++body) {
+    if (world_.movable(body) && world_.bounding_radius_m(body) > 0.0) {
+      wake_targets_.push_back({body, Eigen::Vector3d::Zero(), world_.bounding_radius_m(body)});
+    }
+  }
+  wake_candidates_.reserve(wake_targets_.size());
+
   for (const LatchSpec& spec : config.latches) {
     const std::string what = "latch '" + spec.name + "': ";
     if (FindLatch(spec.name) >= 0) throw std::invalid_argument(what + "the name is used twice");
@@ -194,6 +201,86 @@ void Simulation::ApplyRotorAir(VehicleSim& vehicle, int s) {
   }
 }
 
+void Simulation::AddAirForce(int body, const Eigen::Vector3d& force_W_N, const Eigen::Vector3d& p_W_m) {
+  world_.AddForce_W(body, force_W_N);
+  world_.AddTorque_W(body, (p_W_m - world_.body(body).p_WBcom_m).cross(force_W_N));
+  if (vehicle_of_body_[body] < 0) return;
+  VehicleOutput& out = vehicles_[vehicle_of_body_[body]]->output;
+  out.air_force_W_N += force_W_N;
+  for (size_t s = 0; s < out.sub_aircraft_bodies.size(); ++s) {
+    if (out.sub_aircraft_bodies[s] == body) out.sub_aircraft[s].air_force_W_N += force_W_N;
+  }
+}
+
+// Each rotor's wake (physics/rotor.h) as kWakeCells rays, one per cell of equal area of its cross-section,
+// each carrying that share of the momentum flux, to the first surface it meets within 20 rotor radii (2.5 m
+// for the F450; further down the wake has spread to 2.3 R). A movable body there takes C_D / 2 of the share
+// at the point hit, along the wake; a static surface (the ground, an object) stops the ray. The wake leaves
+// along the rotor axis at its far speed 2 v_h and the air around carries it (the skewed wake of forward
+// flight, as in Glauert's model of it). Bounding spheres first: a body whose sphere cannot reach the wake's
+// cone is not ray-tested, so a vehicle whose wakes pass clear of everything pays a few products per rotor.
+void Simulation::ApplyDownwash(const VehicleSim& vehicle, int s) {
+  const SubAircraftSim& sim = vehicle.sub_aircraft[s];
+  const model::RotorSet& rotors = sim.rotors->set();
+  const double radius_m = rotors.radius_m;
+  if (!(radius_m > 0.0 && air_.density_kgpm3 > 0.0)) return;
+  const int own_body = vehicle.output.sub_aircraft_bodies[s];
+  const BodyState& state = world_.body(own_body);
+  const double reach_m = 20.0 * radius_m;
+  const double far_radius_m = WakeRadius_m(reach_m, radius_m);
+  const Eigen::Vector3d axis_W = state.q_WB * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d air_W = vehicle.output.wind_W_mps - state.v_WBcom_W;
+  const double share = 0.5 * air_.downwash_drag_coefficient / kWakeCells;
+  for (int j = 0; j < sim.rotors->count(); ++j) {
+    const double speed = sim.rotors->speeds_rad_s()[j];
+    const double thrust_N =
+        rotors.thrust_coefficient * speed * speed * vehicle.output.sub_aircraft[s].thrust_ratio[j];
+    if (!(thrust_N > 0.0)) continue;
+    const double far_speed_mps =
+        2.0 * std::sqrt(thrust_N / (2.0 * air_.density_kgpm3 * M_PI * radius_m * radius_m));
+    const Eigen::Vector3d along_W = (far_speed_mps * axis_W + air_W).normalized();
+    const Eigen::Vector3d hub_W = state.p_WB_m + state.q_WB * rotors.hub_S_m[j];
+    wake_candidates_.clear();
+    for (const WakeTarget& target : wake_targets_) {
+      if (target.body == own_body) continue;
+      const Eigen::Vector3d p_HC_W = target.p_WC_m - hub_W;
+      const double r = target.radius_m;
+      const double t = p_HC_W.dot(along_W);
+      if (t < -r || t > reach_m + r) continue;
+      // the cone's radius where the sphere can reach furthest down it (the cone widens slowly)
+      const double wake_m = WakeRadius_m(std::clamp(t + r, 0.0, reach_m), radius_m);
+      if ((p_HC_W - t * along_W).squaredNorm() <= (wake_m + r) * (wake_m + r)) {
+        wake_candidates_.push_back(target.body);
+      }
+    }
+    if (wake_candidates_.empty()) continue;
+    // the cells' axes: the sub-aircraft's x axis, across the wake
+    Eigen::Vector3d e1_W = state.q_WB * Eigen::Vector3d::UnitX();
+    e1_W = (e1_W - e1_W.dot(along_W) * along_W).normalized();
+    const Eigen::Vector3d e2_W = along_W.cross(e1_W);
+    for (const Eigen::Vector2d& cell : WakeCells()) {
+      const Eigen::Vector3d offset_W = cell.x() * e1_W + cell.y() * e2_W;
+      const Eigen::Vector3d from_W = hub_W + WakeRadius_m(0.0, radius_m) * offset_W;
+      const Eigen::Vector3d to_W = hub_W + reach_m * along_W + far_radius_m * offset_W;
+      const double length_m = (to_W - from_W).norm();
+      double fraction =
+          world_.StaticSurfaceDistance_m(from_W, (to_W - from_W) / length_m, length_m) / length_m;
+      int hit = -1;
+      for (const int body : wake_candidates_) {
+        const double f = world_.BodyRayFraction(body, from_W, to_W);
+        if (f < fraction) {
+          fraction = f;
+          hit = body;
+        }
+      }
+      if (hit < 0) continue;
+      const double distance_m = fraction * reach_m;  // along the wake
+      AddAirForce(hit, share * WakeMomentumFlux_N(thrust_N, distance_m, radius_m) * along_W,
+                  from_W + fraction * (to_W - from_W));
+    }
+  }
+}
+
 void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
   SubAircraftSim& sim = vehicle.sub_aircraft[s];
   SubAircraftOutput& out = vehicle.output.sub_aircraft[s];
@@ -210,6 +297,7 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
     if (air_.enabled) ApplyRotorAir(vehicle, s);
     // the rotors act with the speeds they have now; the controller then moves them for the next step
     sim.rotors->Wrench_S(out.thrust_ratio, &force_S, &torque_S);
+    if (air_.enabled && air_.downwash) ApplyDownwash(vehicle, s);
     out.thrust_W_N = state.q_WB * force_S;
     out.torque_S_Nm = torque_S;
     RotorVector thrusts, speeds;
@@ -230,8 +318,11 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
 }
 
 void Simulation::Step() {
+  for (auto& vehicle : vehicles_) ApplyAir(*vehicle);  // before any wake reaches another vehicle
+  if (air_.enabled && air_.downwash) {
+    for (WakeTarget& target : wake_targets_) target.p_WC_m = world_.body(target.body).p_WBcom_m;
+  }
   for (auto& vehicle : vehicles_) {
-    ApplyAir(*vehicle);
     for (SubAircraftSim& sub : vehicle->sub_aircraft) {
       while (!sub.in_flight.empty() && sub.in_flight.front().first <= step_count()) {
         sub.setpoint = sub.in_flight.front().second;

@@ -90,6 +90,12 @@ struct AirConfig {
   bool body_drag = true;      // quadratic drag of every part with a drag_area_m2
   bool rotor_drag = true;     // rotor drag and rolling moment of rotors with their coefficients
   bool ground_effect = true;  // Cheeseman–Bennett, over the ground plane and static objects; needs radius_m
+  // each rotor's wake pushes the movable bodies below it but its own sub-aircraft (physics/rotor.h's
+  // WakeMomentumFlux_N); needs radius_m
+  bool downwash = true;
+  // C_D of what a wake hits: a disc across the flow, 1.17 (Hoerner, Fluid-Dynamic Drag, 1965); at most 2,
+  // where the blocked flux leaves sideways
+  double downwash_drag_coefficient = 1.17;
 };
 
 struct SimulationConfig {
@@ -110,7 +116,7 @@ struct SubAircraftOutput {
   // force of the sub-aircraft on the platform through its joint, in P (Newton's law on the sub-aircraft)
   Eigen::Vector3d joint_force_P_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d contact_force_W_N = Eigen::Vector3d::Zero();  // from contacts with anything else
-  Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();      // body and rotor drag on it
+  Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();      // body and rotor drag and downwash on it
   RotorVector thrust_ratio;  // per rotor: thrust over its thrust out of ground effect (1 without the air)
 };
 
@@ -125,7 +131,7 @@ struct VehicleOutput {
   Eigen::Vector3d external_force_P_N = Eigen::Vector3d::Zero();
   Eigen::Vector3d external_torque_P_Nm = Eigen::Vector3d::Zero();
   Eigen::Vector3d wind_W_mps = Eigen::Vector3d::Zero();  // at the platform in the last step, gusts included
-  Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();  // body and rotor drag on all its parts
+  Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();  // body and rotor drag, downwash on all its parts
   uint64_t invalid_commands = 0;  // rejected setpoints (NaN, infinite, non-unit quaternion)
   uint64_t saturated_steps = 0;   // sub-aircraft steps where a mixer cut
 };
@@ -207,6 +213,8 @@ class Simulation {
   void ApplySubAircraft(VehicleSim& vehicle, int s);
   void ApplyAir(VehicleSim& vehicle);
   void ApplyRotorAir(VehicleSim& vehicle, int s);  // ground effect and the rotors' drag
+  void ApplyDownwash(const VehicleSim& vehicle, int s);
+  void AddAirForce(int body, const Eigen::Vector3d& force_W_N, const Eigen::Vector3d& p_W_m);
   void ComputeOutputs(int v);
   bool Close(LatchSim& latch);
   void UpdateLatch(LatchSim& latch);
@@ -217,6 +225,15 @@ class Simulation {
   double ground_z_m_ = 0.0;  // the turbulence's height reference (z = 0 without a ground)
   std::vector<std::unique_ptr<VehicleSim>> vehicles_;
   std::vector<int> vehicle_of_body_;  // -1: not part of a vehicle
+  // what a rotor's wake can push: movable bodies with collision shapes, with their bounding spheres as of
+  // this step (one contiguous pass per rotor)
+  struct WakeTarget {
+    int body = 0;
+    Eigen::Vector3d p_WC_m = Eigen::Vector3d::Zero();  // the sphere's centre: the body's CoM
+    double radius_m = 0.0;
+  };
+  std::vector<WakeTarget> wake_targets_;
+  std::vector<int> wake_candidates_;  // scratch, as large as wake_targets_
   std::vector<LatchSim> latches_;
 };
 

@@ -882,20 +882,101 @@ TEST(Air, DiscreteGustsAddToTheWindOnTheirSchedule) {
   EXPECT_EQ(sim->output(0).wind_W_mps, config.air.wind_W_mps);  // both over
 }
 
+// Downwash: a movable slab d = 2 R below the hubs of the hovering three-star, read from its acceleration in
+// the first step (m (a − g)), against C_D / 2 of each wake's momentum flux at d (physics/rotor.h, checked
+// there against the Biot–Savart slipstream). No ground: nothing else acts on the slab.
+Eigen::Vector3d DownwashOnSlab(SimulationConfig config, const WorldObject& slab, double* rotor_thrust_N) {
+  config.air.enabled = true;
+  config.world.ground = false;
+  config.world.objects.push_back(slab);
+  config.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -3.0)));
+  Simulation sim(config);
+  *rotor_thrust_N = HoverRotorThrust_N(sim);
+  const int body = sim.world().FindBody(slab.name);
+  sim.Step();
+  EXPECT_EQ(sim.output(0).air_force_W_N.z(), 0.0);  // no wake of the three-star reaches its own parts
+  return sim.world().mass_kg(body) * (sim.world().body(body).v_WBcom_W / 0.001 - Eigen::Vector3d(0, 0, 9.81));
+}
+
+TEST(Air, DownwashPushesWhatIsBelowARotorWithItsWakesMomentumFlux) {
+  const double radius_m = 0.127, depth_m = 2.0 * radius_m, c_d = 1.17;
+  const double top_z_m = -3.0 + 0.07 + depth_m;  // the hubs are 0.07 m below P's origin
+  double thrust_N = 0.0;
+  const double flux_N = [&] {
+    SimulationConfig probe;
+    probe.vehicles.push_back(Spec("three_star", Eigen::Vector3d(0.0, 0.0, -3.0)));
+    Simulation sim(probe);
+    return WakeMomentumFlux_N(HoverRotorThrust_N(sim), depth_m, radius_m);
+  }();
+  // across all twelve wakes
+  const WorldObject wide =
+      Box("slab", Eigen::Vector3d(3.0, 3.0, 0.1), Eigen::Vector3d(0, 0, top_z_m + 0.05), 2.0);
+  Eigen::Vector3d force = DownwashOnSlab(SimulationConfig{}, wide, &thrust_N);
+  std::printf("downwash on a slab 2 R below: %.4f N of %.4f N thrust\n", force.z(), 12.0 * thrust_N);
+  EXPECT_NEAR(force.z(), 12.0 * 0.5 * c_d * flux_N, 1e-6 * force.z());
+  EXPECT_LT(force.head<2>().norm(), 1e-9);
+  // across the outer halves (x > 0) of sub-aircraft 1's two front rotors (x = 0.48 + 0.159 m): 9 cells each
+  const double edge_m = 0.48 + 0.225 / std::sqrt(2.0) + 1e-3;
+  const WorldObject half =
+      Box("slab", Eigen::Vector3d(3.0, 3.0, 0.1), Eigen::Vector3d(edge_m + 1.5, 0, top_z_m + 0.05), 2.0);
+  force = DownwashOnSlab(SimulationConfig{}, half, &thrust_N);
+  EXPECT_NEAR(force.z(), 2.0 * 9.0 / kWakeCells * 0.5 * c_d * flux_N, 1e-6 * force.z());
+  // a wind carries the wakes along: F_x / F_z = wind / (2 v_h)
+  SimulationConfig windy;
+  windy.air.wind_W_mps = Eigen::Vector3d(3.0, 0.0, 0.0);
+  force = DownwashOnSlab(windy, wide, &thrust_N);
+  const double far_speed_mps = 2.0 * std::sqrt(thrust_N / (2.0 * 1.225 * M_PI * radius_m * radius_m));
+  EXPECT_NEAR(force.x() / force.z(), 3.0 / far_speed_mps, 1e-9);
+  // a static slab between stops the wakes; switched off, nothing
+  SimulationConfig shielded;
+  shielded.world.objects = {
+      Box("table", Eigen::Vector3d(3.0, 3.0, 0.02), Eigen::Vector3d(0, 0, top_z_m - 0.1))};
+  EXPECT_LT(DownwashOnSlab(shielded, wide, &thrust_N).norm(), 1e-9);
+  SimulationConfig off;
+  off.air.downwash = false;
+  EXPECT_LT(DownwashOnSlab(off, wide, &thrust_N).norm(), 1e-9);
+}
+
+// One IAP hovering 0.6 m above another: the upper one's wakes press on the lower one's sub-aircraft (the
+// thrust loss of flying under another vehicle), counted in the lower one's air force, alike on its three
+// sub-aircraft by symmetry; the upper one feels nothing.
+TEST(Air, DownwashOfOneVehicleActsOnAnotherBelowIt) {
+  SimulationConfig config;
+  config.air.enabled = true;
+  config.world.ground = false;
+  config.vehicles = {Spec("three_star", Eigen::Vector3d(0.0, 0.0, -3.6)),
+                     Spec("three_star", Eigen::Vector3d(0.0, 0.0, -3.0))};
+  config.vehicles[0].name = "upper";
+  config.vehicles[1].name = "lower";
+  Simulation sim(config);
+  sim.Step();
+  EXPECT_EQ(sim.output(0).air_force_W_N, Eigen::Vector3d::Zero());
+  const VehicleOutput& lower = sim.output(1);
+  const double first_N = lower.sub_aircraft[0].air_force_W_N.z();
+  EXPECT_GT(first_N, 0.5);
+  for (const SubAircraftOutput& sub : lower.sub_aircraft)
+    EXPECT_NEAR(sub.air_force_W_N.z(), first_N, 1e-6 * first_N);
+  EXPECT_NEAR(lower.air_force_W_N.z(), 3.0 * first_N, 1e-9);
+  std::printf("downwash on the lower IAP: %.3f N (its weight %.3f N)\n", lower.air_force_W_N.z(),
+              sim.vehicle(1).vehicle.TotalMass_kg() * 9.81);
+}
+
 TEST(Air, IsReadFromThePhysicsParamsAndChecked) {
   const std::string vehicles = "vehicles:\n  - {name: iap, file: " + std::string(IAPSIM_SOURCE_DIR) +
                                "/configs/vehicles/three_star.yaml}\n";
   bridge::YamlMap params(
-      YAML::Load(
-          vehicles +
-          "air: {density_kgpm3: 1.1, wind_W_mps: [3, -1, 0], turbulence: {w20_mps: 15.4},\n"
-          "      rotor_drag: false, gusts: [{start_s: 2, rise_s: 0.5, amplitude_W_mps: [0, 4, 0]}]}\n"),
+      YAML::Load(vehicles +
+                 "air: {density_kgpm3: 1.1, wind_W_mps: [3, -1, 0], turbulence: {w20_mps: 15.4},\n"
+                 "      rotor_drag: false, gusts: [{start_s: 2, rise_s: 0.5, amplitude_W_mps: [0, 4, 0]}],\n"
+                 "      downwash_drag_coefficient: 1.5}\n"),
       "test.yaml");
   const AirConfig air = ReadPhysicsConfig(params, "test.yaml", 0.001).simulation.air;
   EXPECT_TRUE(air.enabled);
   EXPECT_TRUE(air.body_drag);
   EXPECT_FALSE(air.rotor_drag);
   EXPECT_TRUE(air.ground_effect);
+  EXPECT_TRUE(air.downwash);
+  EXPECT_EQ(air.downwash_drag_coefficient, 1.5);
   ASSERT_EQ(air.gusts.size(), 1u);
   EXPECT_EQ(air.gusts[0].start_s, 2.0);
   EXPECT_EQ(air.gusts[0].rise_s, 0.5);
@@ -910,7 +991,8 @@ TEST(Air, IsReadFromThePhysicsParamsAndChecked) {
   for (const std::string bad :
        {"{density_kgpm3: -1}", "{wind_W_mps: [3, 0]}", "{turbulence: {model: von_karman}}", "{gusts: 1}",
         "{gusts: [{start_s: 1, rise_s: 0, amplitude_W_mps: [1, 0, 0]}]}",
-        "{gusts: [{start_s: 1, rise_s: 1}]}", "{ground_effect: maybe}"}) {
+        "{gusts: [{start_s: 1, rise_s: 1}]}", "{ground_effect: maybe}", "{downwash_drag_coefficient: 0}",
+        "{downwash_drag_coefficient: 2.5}", "{downwash_drag_coefficient: .nan}"}) {
     SCOPED_TRACE(bad);
     bridge::YamlMap wrong(YAML::Load(vehicles + "air: " + bad + "\n"), "test.yaml");
     try {

@@ -68,8 +68,8 @@ double Measure(const model::Vehicle& vehicle, bool contacts, const physics::Worl
 }
 
 // In the air as above, in a 4 m/s wind with light Dryden turbulence, drag on every part (the F450's C_d·A as
-// in the README's example), rotor drag and ground effect (issue 19's air), and joint friction and cone limits
-// (the README's example): what those models cost against still air and ideal joints.
+// in the README's example), rotor drag, ground effect and downwash (issue 19's air), and joint friction and
+// cone limits (the README's example): what those models cost against still air and ideal joints.
 double MeasureInGustyAir(model::Vehicle vehicle) {
   vehicle.platform_drag_area_B_m2 = Eigen::Vector3d(0.01, 0.01, 0.04);
   for (auto& sub : vehicle.sub_aircraft) {
