@@ -9,6 +9,10 @@
 //                 from (10) once contact holds and drives the contact wrench to a command (§VI-F). The
 //                 wrench comes from wrench_topic (the sensors' low-passed wrench; give this process
 //                 `after: [sensors]` in lockstep so it reads the wrench of its own step).
+//   sensor_link: {delay_s, jitter_s}  what this computer reads of the vehicle (state and wrench) reaches it
+//                 that long after it was measured (control/sensor_link.h); it controls with the newest that
+//                 has arrived and sends nothing before the first (the flight controllers hold their initial
+//                 setpoints)
 //   mode: hover   a constant, open-loop command source: from the first state, each sub-aircraft's share of
 //                 the hover wrench by (17) at the platform's attitude levelled (its yaw kept), as a
 //                 collective thrust and an attitude from (18) with the sub-aircraft's initial yaw.
@@ -16,7 +20,8 @@
 //   subscribes  /<vehicle>/state      iapsim_msgs/IapState
 //               reference.topic       PoseStamped or iapsim_msgs/Setpoint (track with a reference)
 //               wrench_topic          geometry_msgs/WrenchStamped, in P about its origin (interaction)
-//   publishes   /<vehicle>/cmd        iapsim_msgs/IapCommand (stamped with the state it answers)
+//   publishes   /<vehicle>/cmd        iapsim_msgs/IapCommand (stamped with the newest state's time, its
+//                                     step that of the state it was computed from)
 //               /<vehicle>/setpoint   iapsim_msgs/Setpoint   (track: the reference of that command)
 //               /<vehicle>/wrench/command  geometry_msgs/WrenchStamped (track: U, in P about its origin)
 //               /<vehicle>/wrench/target   geometry_msgs/WrenchStamped (direct_wrench, once engaged: the
@@ -38,6 +43,7 @@
 #include "control/commanded_reference.h"
 #include "control/control_config.h"
 #include "control/iap_controller.h"
+#include "control/sensor_link.h"
 #include "control/trajectory.h"
 #include "control/wrench_control.h"
 #include "model/vehicle.h"
@@ -66,6 +72,22 @@ class ControlNode : public bridge::Process {
     config_ = ReadControllerConfig(params);
     // rate_hz 0 runs every clock step
     period_s_ = context.self.rate_hz > 0 ? 1.0 / context.self.rate_hz : context.scenario.clock.step_s;
+    double delay_s = 0.0, jitter_s = 0.0;
+    if (params.Has("sensor_link")) {
+      bridge::YamlMap link = params.Map("sensor_link");
+      link.OptionalInRange("delay_s", &delay_s, 0.0, 10.0);
+      link.OptionalInRange("jitter_s", &jitter_s, 0.0, 10.0);
+      link.Finish();
+    }
+    const double step_s = context.scenario.clock.step_s;
+    const auto step_ns = static_cast<int64_t>(std::llround(step_s * 1e9));
+    try {  // one jitter stream per input
+      states_.emplace(bridge::LinkDelay(delay_s, jitter_s, step_s, context.seed), step_ns);
+      wrenches_.emplace(bridge::LinkDelay(delay_s, jitter_s, step_s, context.seed + 0x9E3779B97F4A7C15ULL),
+                        step_ns);
+    } catch (const std::invalid_argument& e) {
+      params.Fail("sensor_link", e.what());
+    }
     params.OptionalChoice("interaction", &interaction_, {"none", "admittance", "direct_wrench"});
     if (interaction_ != "none") {
       if (mode_ != "track") params.Fail("interaction", "needs mode: track");
@@ -105,14 +127,13 @@ class ControlNode : public bridge::Process {
     bus.Subscribe<iapsim_msgs::IapState>(
         "/" + vehicle_name_ + "/state",
         [this](const iapsim_msgs::IapState& state, const bridge::MessageInfo&) {
-          state_ = state;
-          have_state_ = true;
+          newest_state_ns_ = bridge::ToNanoseconds(state.header.stamp);
+          states_->Push(state, *newest_state_ns_);
         });
     if (!wrench_topic_.empty()) {
       bus.Subscribe<geometry_msgs::WrenchStamped>(
           wrench_topic_, [this](const geometry_msgs::WrenchStamped& m, const bridge::MessageInfo&) {
-            wrench_P_ << bridge::FromMsg(m.wrench.force), bridge::FromMsg(m.wrench.torque);
-            wrench_stamp_ = m.header.stamp;
+            wrenches_->Push(m, bridge::ToNanoseconds(m.header.stamp));
           });
     }
     if (reference_topic_.empty()) return;
@@ -136,14 +157,22 @@ class ControlNode : public bridge::Process {
   }
 
   void Step(const bridge::StepInfo&) override {
-    if (!have_state_ || state_.bodies.empty()) return;  // realtime: nothing to answer yet
+    // realtime: nothing to answer yet; with a sensor link, nothing has arrived yet. The time is that of the
+    // newest state received: what every output is stamped with (in lockstep, this step's).
+    if (!newest_state_ns_ || !states_->Advance(*newest_state_ns_) || measured().bodies.empty()) return;
+    now_ = bridge::ToRosTime(*newest_state_ns_);
+    if (wrenches_->Advance(*newest_state_ns_)) {
+      const geometry_msgs::WrenchStamped& wrench = wrenches_->current();
+      wrench_P_ << bridge::FromMsg(wrench.wrench.force), bridge::FromMsg(wrench.wrench.torque);
+      wrench_stamp_ = wrench.header.stamp;
+    }
     if (controller_ || wrench_controller_) {
       Track();
     } else if (command_.sub_aircraft.empty()) {
       HoldHover();
     }
-    command_.header.stamp = state_.header.stamp;
-    command_.step = state_.step;
+    command_.header.stamp = now_;
+    command_.step = measured().step;
     bus_->Publish("/" + vehicle_name_ + "/cmd", command_);
     ++commands_;
   }
@@ -173,19 +202,19 @@ class ControlNode : public bridge::Process {
 
  private:
   void Track() {
-    const int64_t stamp_ns = bridge::ToNanoseconds(state_.header.stamp);
-    if (!start_ns_) start_ns_ = stamp_ns;
-    const double t_s = static_cast<double>(stamp_ns - *start_ns_) * 1e-9;
+    // the trajectory's time 0 is the first state's, whenever it arrived
+    if (!start_ns_) start_ns_ = bridge::ToNanoseconds(measured().header.stamp);
+    const double t_s = static_cast<double>(bridge::ToNanoseconds(now_) - *start_ns_) * 1e-9;
     if (!hold_) {  // before the first pose command: stay where the flight starts
       hold_.emplace();
-      hold_->p_WP_m = bridge::FromMsg(state_.bodies[0].pose_W.position);
-      hold_->q_WP = bridge::FromMsg(state_.bodies[0].pose_W.orientation).normalized();
+      hold_->p_WP_m = bridge::FromMsg(measured().bodies[0].pose_W.position);
+      hold_->q_WP = bridge::FromMsg(measured().bodies[0].pose_W.orientation).normalized();
     }
     const PoseReference nominal = trajectory_           ? trajectory_->Sample(t_s)
                                   : commanded_->empty() ? *hold_
                                                         : commanded_->current();
-    const PlatformState state = PlatformStateOf(state_.bodies[0]);
-    if (interaction_ != "none" && wrench_stamp_ != state_.header.stamp) ++stale_wrench_updates_;
+    const PlatformState state = PlatformStateOf(measured().bodies[0]);
+    if (interaction_ != "none" && wrench_stamp_ != measured().header.stamp) ++stale_wrench_updates_;
     PoseReference reference = nominal;
     if (admittance_) {
       reference = admittance_->Update(nominal, WrenchInW(state.q_WP, wrench_P_));
@@ -212,6 +241,8 @@ class ControlNode : public bridge::Process {
     PublishWrench("/wrench/command", out.wrench_P);
   }
 
+  const iapsim_msgs::IapState& measured() const { return states_->current(); }
+
   const IapController* active_controller() const {
     if (wrench_controller_) return &wrench_controller_->active_controller();
     return controller_ ? &*controller_ : nullptr;
@@ -219,7 +250,7 @@ class ControlNode : public bridge::Process {
 
   void PublishWrench(const std::string& suffix, const Vector6d& wrench_P) {
     geometry_msgs::WrenchStamped wrench;
-    wrench.header.stamp = state_.header.stamp;
+    wrench.header.stamp = now_;
     wrench.header.frame_id = "P";
     wrench.wrench.force = bridge::ToVector3Msg(wrench_P.head<3>());
     wrench.wrench.torque = bridge::ToVector3Msg(wrench_P.tail<3>());
@@ -228,7 +259,7 @@ class ControlNode : public bridge::Process {
 
   void PublishReference(const PoseReference& reference) {
     iapsim_msgs::Setpoint setpoint;
-    setpoint.header.stamp = state_.header.stamp;
+    setpoint.header.stamp = now_;
     setpoint.header.frame_id = "W";
     setpoint.dof = reference.five_dof ? iapsim_msgs::Setpoint::DOF_5 : iapsim_msgs::Setpoint::DOF_6;
     setpoint.pose_W.position = bridge::ToPointMsg(reference.p_WP_m);
@@ -241,7 +272,7 @@ class ControlNode : public bridge::Process {
   }
 
   void HoldHover() {
-    const Eigen::Quaterniond q_WP = bridge::FromMsg(state_.bodies[0].pose_W.orientation).normalized();
+    const Eigen::Quaterniond q_WP = bridge::FromMsg(measured().bodies[0].pose_W.orientation).normalized();
     const double yaw_rad = YawOf(q_WP.toRotationMatrix());
     const Eigen::Quaterniond level(Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()));
     const Allocation allocation(vehicle_);
@@ -279,8 +310,11 @@ class ControlNode : public bridge::Process {
   std::optional<double> engaged_at_s_;
   double period_s_ = 0.005;
   bridge::Bus* bus_ = nullptr;
-  iapsim_msgs::IapState state_;
-  bool have_state_ = false;
+  // what has arrived over the sensor link
+  std::optional<SensorLink<iapsim_msgs::IapState>> states_;
+  std::optional<SensorLink<geometry_msgs::WrenchStamped>> wrenches_;
+  std::optional<int64_t> newest_state_ns_;  // received, arrived or not
+  ros::Time now_;                           // the step being answered: the newest state's stamp
   std::optional<int64_t> start_ns_;
   iapsim_msgs::IapCommand command_;
   uint64_t commands_ = 0;

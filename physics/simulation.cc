@@ -24,12 +24,6 @@ Simulation::Simulation(const SimulationConfig& config)
     out.platform_body = world_.AddMultibody(spec.name, spec.description, spec.p_WP_m, q_WP);
     vehicle_of_body_.resize(world_.body_count(), static_cast<int>(vehicles_.size()));
 
-    if (!(spec.command_link.delay_s >= 0.0 && spec.command_link.jitter_s >= 0.0)) {
-      throw std::invalid_argument("vehicle '" + spec.name +
-                                  "': the command link's delay and jitter must be >= 0");
-    }
-    sim->link_delay_steps = std::llround(spec.command_link.delay_s / config.step_s);
-    sim->link_jitter_steps = std::llround(spec.command_link.jitter_s / config.step_s);
     if (config.air.turbulence) {
       sim->turbulence = std::make_unique<DrydenTurbulence>(config.seed + 0x9E3779B97F4A7C15ULL *
                                                                              (vehicles_.size() * 64 + 63));
@@ -61,8 +55,12 @@ Simulation::Simulation(const SimulationConfig& config)
         s.setpoint.thrust_N = hover_thrusts_N[i];
       }
       s.setpoint.q_WS = world_.body(body).q_WB;  // hold the initial attitude until commanded
-      // one stream per link, decorrelated (SplitMix64's increment, as the sensors seed theirs)
-      s.jitter_random.seed(config.seed + 0x9E3779B97F4A7C15ULL * (vehicles_.size() * 64 + i + 1));
+      try {  // one jitter stream per link, decorrelated (SplitMix64's increment, as the sensors seed theirs)
+        s.link = bridge::LinkDelay(spec.command_link.delay_s, spec.command_link.jitter_s, config.step_s,
+                                   config.seed + 0x9E3779B97F4A7C15ULL * (vehicles_.size() * 64 + i + 1));
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument("vehicle '" + spec.name + "': the command link: " + e.what());
+      }
       sim->sub_aircraft.push_back(std::move(s));
       SubAircraftOutput sub_out;
       sub_out.rotor_speeds_rad_s = sim->sub_aircraft.back().rotors->speeds_rad_s();
@@ -113,19 +111,11 @@ bool Simulation::SetCommand(int v, int s, const SubAircraftSetpoint& setpoint) {
     return false;
   }
   SubAircraftSim& sub = vehicle.sub_aircraft.at(s);
-  if (vehicle.link_delay_steps == 0 && vehicle.link_jitter_steps == 0) {
+  if (sub.link.immediate()) {
     sub.setpoint = setpoint;
     return true;
   }
-  // the jitter from the engine's raw output: std::uniform_int_distribution differs between standard
-  // libraries, and a run must repeat anywhere (the modulo's bias is below 1e-17 for any jitter in steps)
-  const int64_t jitter =
-      vehicle.link_jitter_steps > 0
-          ? static_cast<int64_t>(sub.jitter_random() % static_cast<uint64_t>(vehicle.link_jitter_steps + 1))
-          : 0;
-  int64_t arrival = step_count() + vehicle.link_delay_steps + jitter;
-  if (!sub.in_flight.empty()) arrival = std::max(arrival, sub.in_flight.back().first);  // a link keeps order
-  sub.in_flight.emplace_back(arrival, setpoint);
+  sub.in_flight.emplace_back(sub.link.Arrival(step_count()), setpoint);
   return true;
 }
 

@@ -18,10 +18,10 @@
 #include <cstdint>
 #include <deque>
 #include <memory>
-#include <random>
 #include <string>
 #include <vector>
 
+#include "bridge/link_delay.h"
 #include "model/urdf.h"
 #include "model/vehicle.h"
 #include "physics/flight_controller.h"
@@ -38,7 +38,8 @@ enum class InitialRotors { kHover, kIdle };
 /// The link from the IAP computer to each sub-aircraft's flight controller (a serial or radio link on the
 /// real vehicle): a setpoint takes effect `delay_s` after it was set, plus a jitter drawn uniformly from [0,
 /// jitter_s] per setpoint, both rounded to whole physics steps so that runs stay deterministic, and setpoints
-/// never overtake each other. Zero (the default) applies a setpoint in the step it was set for.
+/// never overtake each other (bridge/link_delay.h). Zero (the default) applies a setpoint in the step it was
+/// set for.
 struct CommandLink {
   double delay_s = 0.0;
   double jitter_s = 0.0;
@@ -191,16 +192,14 @@ class Simulation {
     std::unique_ptr<Rotors> rotors;
     std::unique_ptr<FlightController> controller;
     SubAircraftSetpoint setpoint;
-    // the command link: setpoints on their way, by the step they arrive at (non-decreasing), and its jitter
+    // the command link, and the setpoints on their way by the step they arrive at (non-decreasing)
+    bridge::LinkDelay link;
     std::deque<std::pair<int64_t, SubAircraftSetpoint>> in_flight;
-    std::mt19937_64 jitter_random;
   };
   struct VehicleSim {
     VehicleSpec spec;
     std::vector<SubAircraftSim> sub_aircraft;
     VehicleOutput output;
-    int64_t link_delay_steps = 0;
-    int64_t link_jitter_steps = 0;
     std::unique_ptr<DrydenTurbulence> turbulence;  // when the air is turbulent
   };
 

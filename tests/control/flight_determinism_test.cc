@@ -2,21 +2,27 @@
 // identical tracking and contact metrics, to the last bit, also when the controller closes its loop on
 // another process's output (the sensors' filtered wrench, ordered by `after`).
 #include <gtest/gtest.h>
+#include <iapsim_msgs/IapCommand.h>
 #include <unistd.h>
 
 #include <filesystem>
 
+#include "bridge/bag.h"
+#include "bridge/eigen_msgs.h"
 #include "bridge/launcher.h"
+#include "bridge/message.h"
 #include "bridge/scenario.h"
 #include "tools/run_evaluation.h"
 
 namespace iapsim::tools {
 namespace {
 
-nlohmann::json Fly(const std::string& scenario, const std::string& out_dir, double duration_s) {
+nlohmann::json Fly(const std::string& scenario, const std::string& out_dir, double duration_s,
+                   const std::vector<std::string>& overrides = {}) {
   bridge::LaunchOptions options;
   options.scenario_path = scenario;
   options.overrides = {"mode=lockstep", "duration_s=" + std::to_string(duration_s)};
+  options.overrides.insert(options.overrides.end(), overrides.begin(), overrides.end());
   options.out_dir = out_dir;
   options.bin_dir = bridge::ExecutableDir();
   const bridge::LaunchResult result = bridge::Launch(options);
@@ -54,6 +60,41 @@ TEST(FlightDeterminism, TheWallPushClosedOnTheSensorsProcessRepeatsToTheBit) {
   EXPECT_EQ(first, second) << first.dump(2) << "\n" << second.dump(2);
   EXPECT_GT(first["contact"]["engaged_at_s"].get<double>(), 4.0);
   EXPECT_GT(first["contact"]["max_filtered_force_N"].get<double>(), 1.0);
+  std::filesystem::remove_all(out);
+}
+
+// The controller's sensor link (issue 19's timing): every command is computed from a state 20 to 30 ms older
+// than the step it answers (its `step` against its stamp, 1 ms clock), the flight differs from the one
+// without latency, and it repeats to the bit, jitter included.
+TEST(FlightDeterminism, ASensorLinkHoldsTheStateBackOnTheStepGridAndRepeats) {
+  const std::string scenario = std::string(IAPSIM_SOURCE_DIR) + "/configs/regression/two_line_circle.yaml";
+  const std::filesystem::path out = OutDir("link");
+  const std::vector<std::string> link = {
+      "processes.control.params.sensor_link={delay_s: 0.02, jitter_s: 0.01}"};
+  const nlohmann::json first = Fly(scenario, (out / "a").string(), 4.0, link);
+  const nlohmann::json second = Fly(scenario, (out / "b").string(), 4.0, link);
+  const nlohmann::json ideal = Fly(scenario, (out / "c").string(), 4.0);
+  EXPECT_EQ(first, second) << first.dump(2) << "\n" << second.dump(2);
+  EXPECT_NE(first["tracking"], ideal["tracking"]);
+  int commands = 0, at_delay = 0, at_most = 0;
+  bridge::BagReader bag((out / "a" / "run.bag").string());
+  bag.ForEach({}, [&](const bridge::BagMessage& message) {
+    if (message.topic.size() < 4 || message.topic.substr(message.topic.size() - 4) != "/cmd") return true;
+    iapsim_msgs::IapCommand command;
+    std::string error;
+    EXPECT_TRUE(bridge::Decode(message.bytes, &command, &error)) << error;
+    const int64_t age_ns =
+        bridge::ToNanoseconds(command.header.stamp) - static_cast<int64_t>(command.step) * 1000000;
+    EXPECT_GE(age_ns, 20000000) << command.step;
+    EXPECT_LE(age_ns, 30000000) << command.step;
+    at_delay += age_ns == 20000000;
+    at_most += age_ns == 30000000;
+    ++commands;
+    return true;
+  });
+  EXPECT_GT(commands, 700);  // 200 Hz for 4 s, none before the first state arrives
+  EXPECT_GT(at_delay, 0);
+  EXPECT_GT(at_most, 0);
   std::filesystem::remove_all(out);
 }
 
