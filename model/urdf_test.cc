@@ -209,6 +209,29 @@ TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
        "0]}\n" +
            subs,
        "platform.drag_area_m2: expected C_d·A per body axis"},
+      {"motor",
+       "name: x\n" + good_platform + "sub_aircraft_defaults:\n  base: " + F450() +
+           "\n  rotors: {arm_m: 0.2, thrust_coefficient: 1e-5, torque_coefficient: 1e-7,"
+           " motor_time_constant_s: 0.02, speed_rad_s: [100, 900], electric: {kv_rpm_per_V: 920,"
+           " resistance_ohm: .nan, no_load_current_A: 0.5, time_constant_up_s: 0.01, time_constant_down_s: "
+           "0.02}}\n"
+           "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
+       "sub_aircraft_defaults.rotors.electric.resistance_ohm: must be in (0, 100) ohm"},
+      {"thrust curve",
+       "name: x\n" + good_platform + "sub_aircraft_defaults:\n  base: " + F450() +
+           "\n  rotors: {arm_m: 0.2, thrust_coefficient: 1e-5, torque_coefficient: 1e-7,"
+           " motor_time_constant_s: 0.02, speed_rad_s: [100, 900], electric: {kv_rpm_per_V: 920,"
+           " resistance_ohm: 0.2, no_load_current_A: 0.5, time_constant_up_s: 0.01, time_constant_down_s: "
+           "0.02,"
+           " thrust_model_factor: 1.5}}\n"
+           "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
+       "thrust_model_factor: must be in [0, 1]"},
+      {"battery",
+       "name: x\n" + good_platform + "sub_aircraft_defaults:\n  base: " + F450() +
+           "\n  battery: {cells: 0, capacity_mAh: 5000, internal_resistance_ohm: 0.005,"
+           " polarization_resistance_ohm: 0.003, polarization_time_constant_s: 30}\n"
+           "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
+       "sub_aircraft_defaults.battery.cells: must be 1 to 24 cells in series"},
       {"vector",
        "name: x\n" + good_platform + "sub_aircraft_defaults: {base: " + F450() +
            "}\n"

@@ -135,8 +135,57 @@ Shape ReadShape(YamlMap& map, BodyMotion motion) {
   return shape;
 }
 
+// A number in (lo, hi) (NaN fails too), or a clear error.
+void RequiredInOpenRange(YamlMap& map, const std::string& key, double* value, double lo, double hi,
+                         const std::string& unit) {
+  map.Required(key, value);
+  if (!(*value > lo && *value < hi)) {
+    map.Fail(key,
+             "must be in (" + YAML::Dump(YAML::Node(lo)) + ", " + YAML::Dump(YAML::Node(hi)) + ") " + unit);
+  }
+}
+
+// electric: {kv_rpm_per_V, resistance_ohm, no_load_current_A, time_constant_up_s, time_constant_down_s,
+//            thrust_model_factor}
+void ReadMotorElectrics(YamlMap& map, MotorElectrics* motor) {
+  RequiredInOpenRange(map, "kv_rpm_per_V", &motor->kv_rpm_per_V, 0.0, 1e5, "rpm/V");
+  RequiredInOpenRange(map, "resistance_ohm", &motor->resistance_ohm, 0.0, 100.0, "ohm");
+  map.Required("no_load_current_A", &motor->no_load_current_A);
+  if (!(motor->no_load_current_A >= 0.0 && motor->no_load_current_A < 100.0)) {
+    map.Fail("no_load_current_A", "must be in [0, 100) A");
+  }
+  RequiredInOpenRange(map, "time_constant_up_s", &motor->time_constant_up_s, 0.0, 10.0, "s");
+  RequiredInOpenRange(map, "time_constant_down_s", &motor->time_constant_down_s, 0.0, 10.0, "s");
+  if (map.Has("thrust_model_factor")) {
+    map.Optional("thrust_model_factor", &motor->thrust_model_factor);
+    if (!(motor->thrust_model_factor >= 0.0 && motor->thrust_model_factor <= 1.0)) {
+      map.Fail("thrust_model_factor", "must be in [0, 1] (PX4's THR_MDL_FAC); leave it out to fit it");
+    }
+  }
+  map.Finish();
+}
+
+// battery: {cells, capacity_mAh, internal_resistance_ohm, polarization_resistance_ohm,
+//           polarization_time_constant_s}, resistances per cell
+void ReadBattery(YamlMap& map, Battery* battery) {
+  map.Required("cells", &battery->cells);
+  if (!(battery->cells >= 1 && battery->cells <= 24)) map.Fail("cells", "must be 1 to 24 cells in series");
+  double capacity_mAh = 0.0;
+  RequiredInOpenRange(map, "capacity_mAh", &capacity_mAh, 0.0, 1e6, "mAh");
+  battery->capacity_Ah = capacity_mAh / 1000.0;
+  RequiredInOpenRange(map, "internal_resistance_ohm", &battery->internal_resistance_ohm, 0.0, 10.0,
+                      "ohm per cell");
+  map.Required("polarization_resistance_ohm", &battery->polarization_resistance_ohm);
+  if (!(battery->polarization_resistance_ohm >= 0.0 && battery->polarization_resistance_ohm < 10.0)) {
+    map.Fail("polarization_resistance_ohm", "must be in [0, 10) ohm per cell");
+  }
+  RequiredInOpenRange(map, "polarization_time_constant_s", &battery->polarization_time_constant_s, 0.0, 1e5,
+                      "s");
+  map.Finish();
+}
+
 // rotors: {layout: x | plus, arm_m, thrust_coefficient, torque_coefficient, motor_time_constant_s,
-//          speed_rad_s: [min, max], radius_m, drag_coefficient, rolling_moment_coefficient}; motor
+//          speed_rad_s: [min, max], radius_m, drag_coefficient, rolling_moment_coefficient, electric}; motor
 //          numbering and spin follow PX4's quadrotor geometries
 void ReadRotors(YamlMap& map, RotorSet* rotors) {
   std::string layout = "x";
@@ -160,6 +209,10 @@ void ReadRotors(YamlMap& map, RotorSet* rotors) {
   map.OptionalInRange("radius_m", &rotors->radius_m, 0.0, arm_m / std::sqrt(2.0));
   map.OptionalInRange("drag_coefficient", &rotors->drag_N_per_radps_mps, 0.0, 1.0);
   map.OptionalInRange("rolling_moment_coefficient", &rotors->rolling_moment_Nm_per_radps_mps, 0.0, 1.0);
+  if (map.Has("electric")) {
+    YamlMap electric = map.Map("electric");
+    ReadMotorElectrics(electric, &rotors->electric);
+  }
   map.Finish();
 
   const double a = layout == "x" ? arm_m / std::sqrt(2.0) : arm_m;
@@ -182,6 +235,7 @@ void ReadFlightController(YamlMap& map, FlightControllerGains* gains) {
   OptionalPerAxis(map, "rate_i", &gains->rate_i_per_s2);
   OptionalPerAxis(map, "rate_integral_limit", &gains->rate_integral_limit_rad_s2);
   OptionalPerAxis(map, "max_rate_deg_s", &gains->max_rate_rad_s, kDegToRad);
+  map.Optional("battery_scale", &gains->battery_scale);
   map.Finish();
 }
 
@@ -223,6 +277,10 @@ void ReadSubAircraft(YamlMap& map, SubAircraft* sub) {
   if (map.Has("flight_controller")) {
     YamlMap gains = map.Map("flight_controller");
     ReadFlightController(gains, &sub->flight_controller);
+  }
+  if (map.Has("battery")) {
+    YamlMap battery = map.Map("battery");
+    ReadBattery(battery, &sub->battery);
   }
 }
 

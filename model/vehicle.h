@@ -59,6 +59,28 @@ struct JointResistance {
   double max_tilt_rad = 0.0;  // 0: no limit
 };
 
+/// The brushless motor and ESC behind each rotor, as a DC motor the ESC drives at a fraction (the throttle)
+/// of the battery voltage (physics/drive.h).
+struct MotorElectrics {
+  double kv_rpm_per_V = 0.0;          // speed constant; 0: no electric model
+  double resistance_ohm = 0.0;        // winding, ESC and wiring
+  double no_load_current_A = 0.0;     // friction and iron losses, as a constant current
+  double time_constant_up_s = 0.0;    // speed response to a higher throttle ...
+  double time_constant_down_s = 0.0;  // ... and to a lower one: an ESC without active braking is slower
+  // PX4's THR_MDL_FAC, the flight controller's thrust curve; < 0: fitted on a simulated thrust stand
+  double thrust_model_factor = -1.0;
+};
+
+/// A lithium-polymer battery pack: cells in series, each an open-circuit voltage over state of charge behind
+/// an ohmic resistance and one polarisation RC pair (the Thevenin model; physics/drive.h).
+struct Battery {
+  int cells = 0;  // 0: no battery model
+  double capacity_Ah = 0.0;
+  double internal_resistance_ohm = 0.0;      // per cell
+  double polarization_resistance_ohm = 0.0;  // per cell
+  double polarization_time_constant_s = 0.0;
+};
+
 /// The rotors of one sub-aircraft: thrust k_f·ω² along −z_S at each hub, drag torque k_m·ω² about z_S,
 /// first-order motor speed dynamics with saturation.
 struct RotorSet {
@@ -76,6 +98,9 @@ struct RotorSet {
   double drag_N_per_radps_mps = 0.0;
   double rolling_moment_Nm_per_radps_mps = 0.0;
 
+  // the motors and ESCs, used when a scenario models the actuation (physics/drive.h); kv 0: not modelled
+  MotorElectrics electric;
+
   double MaxThrust_N() const { return thrust_coefficient * max_speed_rad_s * max_speed_rad_s; }
   double MinThrust_N() const { return thrust_coefficient * min_speed_rad_s * min_speed_rad_s; }
 };
@@ -88,6 +113,7 @@ struct FlightControllerGains {
   Eigen::Vector3d rate_i_per_s2{10.0, 10.0, 5.0};             // ... per integrated rate error
   Eigen::Vector3d rate_integral_limit_rad_s2{5.0, 5.0, 2.0};  // bound of the integral's contribution
   Eigen::Vector3d max_rate_rad_s{3.84, 3.84, 3.49};           // PX4 MC_*RATE_MAX: 220, 220, 200 deg/s
+  bool battery_scale = false;  // PX4 MC_BAT_SCALE_EN: thrust scaled up as the pack sags (physics/drive.h)
 };
 
 struct SubAircraft {
@@ -99,6 +125,7 @@ struct SubAircraft {
   double initial_yaw_rad = 0.0;                         // initial yaw of S_i relative to P
   RotorSet rotors;
   FlightControllerGains flight_controller;
+  Battery battery;  // what drives the motors when a scenario models the actuation
   std::vector<Shape> collision;
   std::string mesh;
   Eigen::Vector3d drag_area_B_m2 = Eigen::Vector3d::Zero();  // C_d·A per body axis (physics/wind.h); 0: none

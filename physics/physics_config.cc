@@ -284,6 +284,29 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
   }
   params.SetResolved("vehicles", resolved);
 
+  if (params.Has("actuation")) {
+    YamlMap actuation = params.Map("actuation");
+    ActuationConfig& out = config.simulation.actuation;
+    actuation.Optional("battery_sag", &out.battery_sag);
+    actuation.Optional("state_of_charge", &out.state_of_charge);
+    if (!(out.state_of_charge >= 0.0 && out.state_of_charge <= 1.0)) {
+      actuation.Fail("state_of_charge", "expected the packs' charge at the start, in [0, 1]");
+    }
+    actuation.Finish();
+    out.enabled = true;
+    for (const VehicleSpec& vehicle : config.simulation.vehicles) {
+      for (const model::SubAircraft& sub : vehicle.vehicle.sub_aircraft) {
+        std::string missing;
+        if (!(sub.rotors.electric.kv_rpm_per_V > 0.0)) missing = "no rotors.electric";
+        if (sub.battery.cells < 1) missing += std::string(missing.empty() ? "" : " and ") + "no battery";
+        if (missing.empty()) continue;
+        params.Fail("actuation", "needs the motors and the battery of every sub-aircraft, but " + sub.name +
+                                     " of vehicle '" + vehicle.name + "' (" + vehicle.vehicle.source_file +
+                                     ") has " + missing);
+      }
+    }
+  }
+
   if (params.Has("latches")) {
     const YAML::Node latches = params.Raw("latches");
     if (!latches.IsSequence()) {

@@ -56,8 +56,11 @@ class Rotors {
   double min_thrust_N() const { return min_thrust_N_; }  // per rotor
   double max_thrust_N() const { return max_thrust_N_; }
 
-  /// Sets every motor's speed at once (initial conditions).
+  /// Sets every motor's speed at once (initial conditions), within the speed range.
   void SetSpeeds(const RotorVector& speeds_rad_s);
+  /// Sets the speeds an electric drive reached (physics/drive.h): its motors, not the speed range, bound
+  /// them.
+  void SetDrivenSpeeds(const RotorVector& speeds_rad_s) { speeds_rad_s_ = speeds_rad_s; }
   const RotorVector& speeds_rad_s() const { return speeds_rad_s_; }
   /// Advances the motors toward `commanded_rad_s` over dt: exact step of ω̇ = (ω_cmd − ω)/τ, with the
   /// command clamped to the speed limits.

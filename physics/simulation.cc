@@ -47,6 +47,16 @@ Simulation::Simulation(const SimulationConfig& config)
       }
       s.controller =
           std::make_unique<FlightController>(sub.flight_controller, sub.mass.inertia_B_kgm2, *s.rotors);
+      if (config.actuation.enabled) {
+        try {
+          s.drive = std::make_unique<ElectricDrive>(sub.rotors, sub.battery, config.actuation.state_of_charge,
+                                                    config.actuation.battery_sag,
+                                                    sub.flight_controller.battery_scale);
+        } catch (const std::invalid_argument& e) {
+          throw std::invalid_argument("vehicle '" + spec.name + "', " + sub.name +
+                                      ": the actuation model: " + e.what());
+        }
+      }
       const int n = s.rotors->count();
       if (spec.initial_rotors == InitialRotors::kHover) {
         RotorVector speeds;
@@ -65,6 +75,7 @@ Simulation::Simulation(const SimulationConfig& config)
       SubAircraftOutput sub_out;
       sub_out.rotor_speeds_rad_s = sim->sub_aircraft.back().rotors->speeds_rad_s();
       sub_out.thrust_ratio = RotorVector::Ones(n);
+      sub_out.throttle = RotorVector::Zero(n);
       out.sub_aircraft.push_back(sub_out);
     }
     vehicles_.push_back(std::move(sim));
@@ -293,8 +304,16 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
     RotorVector thrusts, speeds;
     const Eigen::Vector3d w_WS_S = state.q_WB.conjugate() * state.w_WB_W;
     out.saturated = sim.controller->Update(sim.setpoint, state.q_WB, w_WS_S, dt, &thrusts);
-    sim.rotors->SpeedsForThrusts(thrusts, &speeds);
-    sim.rotors->Step(speeds, dt);
+    if (sim.drive) {
+      sim.drive->Step(thrusts, dt, sim.rotors.get());
+      out.throttle = sim.drive->throttle();
+      out.battery_voltage_V = sim.drive->voltage_V();
+      out.battery_current_A = sim.drive->current_A();
+      out.state_of_charge = sim.drive->battery().state_of_charge();
+    } else {
+      sim.rotors->SpeedsForThrusts(thrusts, &speeds);
+      sim.rotors->Step(speeds, dt);
+    }
     out.rotor_speeds_rad_s = sim.rotors->speeds_rad_s();
     if (out.saturated) ++vehicle.output.saturated_steps;
   }

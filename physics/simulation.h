@@ -24,6 +24,7 @@
 #include "bridge/link_delay.h"
 #include "model/urdf.h"
 #include "model/vehicle.h"
+#include "physics/drive.h"
 #include "physics/flight_controller.h"
 #include "physics/multibody_world.h"
 #include "physics/rotor.h"
@@ -99,9 +100,20 @@ struct AirConfig {
   double downwash_drag_coefficient = 1.17;
 };
 
+/// The sub-aircraft's electric drives (physics/drive.h: PX4's thrust curve, ESC, DC motors with their own
+/// spin-up and spin-down, a sagging battery), modelled when `enabled` (a scenario's `actuation:`). Without it
+/// each flight controller sets its rotors' speeds through the rotor set's first-order motors, as in the
+/// paper's simulator. Every sub-aircraft then needs `rotors.electric` and `battery` in its vehicle file.
+struct ActuationConfig {
+  bool enabled = false;
+  bool battery_sag = true;       // false: the motors run on a charged pack's voltage throughout
+  double state_of_charge = 1.0;  // of every pack at the start
+};
+
 struct SimulationConfig {
   double step_s = 0.001;
   AirConfig air;
+  ActuationConfig actuation;
   uint64_t seed = 0;  // the simulation's random streams (the command links' jitter)
   WorldConfig world;
   std::vector<VehicleSpec> vehicles;
@@ -119,6 +131,11 @@ struct SubAircraftOutput {
   Eigen::Vector3d contact_force_W_N = Eigen::Vector3d::Zero();  // from contacts with anything else
   Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();      // body and rotor drag and downwash on it
   RotorVector thrust_ratio;  // per rotor: thrust over its thrust out of ground effect (1 without the air)
+  // the electric drive's (all zero without the actuation model)
+  RotorVector throttle;            // per rotor, in [0, 1]
+  double battery_voltage_V = 0.0;  // at the ESCs
+  double battery_current_A = 0.0;  // drawn by the four ESCs
+  double state_of_charge = 0.0;    // of the pack, in [0, 1]
 };
 
 struct VehicleOutput {
@@ -191,6 +208,7 @@ class Simulation {
   struct SubAircraftSim {
     std::unique_ptr<Rotors> rotors;
     std::unique_ptr<FlightController> controller;
+    std::unique_ptr<ElectricDrive> drive;  // when the actuation is modelled
     SubAircraftSetpoint setpoint;
     // the command link, and the setpoints on their way by the step they arrive at (non-decreasing)
     bridge::LinkDelay link;
