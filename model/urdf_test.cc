@@ -232,6 +232,11 @@ TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
            " polarization_resistance_ohm: 0.003, polarization_time_constant_s: 30}\n"
            "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
        "sub_aircraft_defaults.battery.cells: must be 1 to 24 cells in series"},
+      {"gyro filter",
+       "name: x\n" + good_platform + "sub_aircraft_defaults:\n  base: " + F450() +
+           "\n  flight_controller: {gyro_cutoff_hz: 0}\n"
+           "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
+       "sub_aircraft_defaults.flight_controller.gyro_cutoff_hz: must be in (0, 10000) Hz"},
       {"vector",
        "name: x\n" + good_platform + "sub_aircraft_defaults: {base: " + F450() +
            "}\n"

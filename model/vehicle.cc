@@ -135,10 +135,14 @@ Shape ReadShape(YamlMap& map, BodyMotion motion) {
   return shape;
 }
 
-// A number in (lo, hi) (NaN fails too), or a clear error.
-void RequiredInOpenRange(YamlMap& map, const std::string& key, double* value, double lo, double hi,
-                         const std::string& unit) {
-  map.Required(key, value);
+// A number in (lo, hi) (NaN fails too), or a clear error; one not required keeps its default when absent.
+void ReadInOpenRange(YamlMap& map, const std::string& key, double* value, double lo, double hi,
+                     const std::string& unit, bool required = true) {
+  if (required) {
+    map.Required(key, value);
+  } else {
+    map.Optional(key, value);
+  }
   if (!(*value > lo && *value < hi)) {
     map.Fail(key,
              "must be in (" + YAML::Dump(YAML::Node(lo)) + ", " + YAML::Dump(YAML::Node(hi)) + ") " + unit);
@@ -148,14 +152,14 @@ void RequiredInOpenRange(YamlMap& map, const std::string& key, double* value, do
 // electric: {kv_rpm_per_V, resistance_ohm, no_load_current_A, time_constant_up_s, time_constant_down_s,
 //            thrust_model_factor}
 void ReadMotorElectrics(YamlMap& map, MotorElectrics* motor) {
-  RequiredInOpenRange(map, "kv_rpm_per_V", &motor->kv_rpm_per_V, 0.0, 1e5, "rpm/V");
-  RequiredInOpenRange(map, "resistance_ohm", &motor->resistance_ohm, 0.0, 100.0, "ohm");
+  ReadInOpenRange(map, "kv_rpm_per_V", &motor->kv_rpm_per_V, 0.0, 1e5, "rpm/V");
+  ReadInOpenRange(map, "resistance_ohm", &motor->resistance_ohm, 0.0, 100.0, "ohm");
   map.Required("no_load_current_A", &motor->no_load_current_A);
   if (!(motor->no_load_current_A >= 0.0 && motor->no_load_current_A < 100.0)) {
     map.Fail("no_load_current_A", "must be in [0, 100) A");
   }
-  RequiredInOpenRange(map, "time_constant_up_s", &motor->time_constant_up_s, 0.0, 10.0, "s");
-  RequiredInOpenRange(map, "time_constant_down_s", &motor->time_constant_down_s, 0.0, 10.0, "s");
+  ReadInOpenRange(map, "time_constant_up_s", &motor->time_constant_up_s, 0.0, 10.0, "s");
+  ReadInOpenRange(map, "time_constant_down_s", &motor->time_constant_down_s, 0.0, 10.0, "s");
   if (map.Has("thrust_model_factor")) {
     map.Optional("thrust_model_factor", &motor->thrust_model_factor);
     if (!(motor->thrust_model_factor >= 0.0 && motor->thrust_model_factor <= 1.0)) {
@@ -171,16 +175,15 @@ void ReadBattery(YamlMap& map, Battery* battery) {
   map.Required("cells", &battery->cells);
   if (!(battery->cells >= 1 && battery->cells <= 24)) map.Fail("cells", "must be 1 to 24 cells in series");
   double capacity_mAh = 0.0;
-  RequiredInOpenRange(map, "capacity_mAh", &capacity_mAh, 0.0, 1e6, "mAh");
+  ReadInOpenRange(map, "capacity_mAh", &capacity_mAh, 0.0, 1e6, "mAh");
   battery->capacity_Ah = capacity_mAh / 1000.0;
-  RequiredInOpenRange(map, "internal_resistance_ohm", &battery->internal_resistance_ohm, 0.0, 10.0,
-                      "ohm per cell");
+  ReadInOpenRange(map, "internal_resistance_ohm", &battery->internal_resistance_ohm, 0.0, 10.0,
+                  "ohm per cell");
   map.Required("polarization_resistance_ohm", &battery->polarization_resistance_ohm);
   if (!(battery->polarization_resistance_ohm >= 0.0 && battery->polarization_resistance_ohm < 10.0)) {
     map.Fail("polarization_resistance_ohm", "must be in [0, 10) ohm per cell");
   }
-  RequiredInOpenRange(map, "polarization_time_constant_s", &battery->polarization_time_constant_s, 0.0, 1e5,
-                      "s");
+  ReadInOpenRange(map, "polarization_time_constant_s", &battery->polarization_time_constant_s, 0.0, 1e5, "s");
   map.Finish();
 }
 
@@ -236,6 +239,23 @@ void ReadFlightController(YamlMap& map, FlightControllerGains* gains) {
   OptionalPerAxis(map, "rate_integral_limit", &gains->rate_integral_limit_rad_s2);
   OptionalPerAxis(map, "max_rate_deg_s", &gains->max_rate_rad_s, kDegToRad);
   map.Optional("battery_scale", &gains->battery_scale);
+  OptionalPerAxis(map, "rate_d", &gains->rate_d);
+  ReadInOpenRange(map, "gyro_cutoff_hz", &gains->gyro_cutoff_hz, 0.0, 1e4, "Hz", /*required=*/false);
+  ReadInOpenRange(map, "dgyro_cutoff_hz", &gains->dgyro_cutoff_hz, 0.0, 1e4, "Hz", /*required=*/false);
+  if (map.Has("imu")) {
+    YamlMap imu = map.Map("imu");
+    FlightControllerImu& out = gains->imu;
+    for (const auto& [key, value] : {std::pair{"gyroscope_noise_density", &out.gyroscope_noise_density},
+                                     {"gyroscope_random_walk", &out.gyroscope_random_walk},
+                                     {"gyroscope_bias_sigma_radps", &out.gyroscope_bias_sigma_radps},
+                                     {"accelerometer_noise_density", &out.accelerometer_noise_density},
+                                     {"accelerometer_random_walk", &out.accelerometer_random_walk},
+                                     {"accelerometer_bias_sigma_mps2", &out.accelerometer_bias_sigma_mps2}}) {
+      imu.Optional(key, value);
+      if (!(*value >= 0.0 && *value < 100.0)) imu.Fail(key, "must be in [0, 100)");
+    }
+    imu.Finish();
+  }
   map.Finish();
 }
 

@@ -105,6 +105,17 @@ struct RotorSet {
   double MinThrust_N() const { return thrust_coefficient * min_speed_rad_s * min_speed_rad_s; }
 };
 
+/// The flight controller's own IMU, as continuous-time densities (Kalibr's convention, sensors/imu.h). The
+/// defaults are PX4 Gazebo's and RotorS' IMU plugin's (an ADIS16448).
+struct FlightControllerImu {
+  double gyroscope_noise_density = 3.394e-4;    // rad/s/√Hz
+  double gyroscope_random_walk = 3.8785e-5;     // rad/s²/√Hz
+  double gyroscope_bias_sigma_radps = 0.0087;   // turn-on bias, per axis
+  double accelerometer_noise_density = 4.0e-3;  // m/s²/√Hz
+  double accelerometer_random_walk = 6.0e-3;    // m/s³/√Hz
+  double accelerometer_bias_sigma_mps2 = 0.196;
+};
+
 /// Gains of the simulated flight controller (PX4-style cascade: attitude P -> body-rate PI -> mixer).
 /// Per axis (roll, pitch, yaw) of the sub-aircraft body frame.
 struct FlightControllerGains {
@@ -114,6 +125,13 @@ struct FlightControllerGains {
   Eigen::Vector3d rate_integral_limit_rad_s2{5.0, 5.0, 2.0};  // bound of the integral's contribution
   Eigen::Vector3d max_rate_rad_s{3.84, 3.84, 3.49};           // PX4 MC_*RATE_MAX: 220, 220, 200 deg/s
   bool battery_scale = false;  // PX4 MC_BAT_SCALE_EN: thrust scaled up as the pack sags (physics/drive.h)
+  // where the flight controller runs on its own IMU (a scenario's flight_controller_sensing): the rate loop's
+  // D term on the measured angular acceleration, and PX4's low-pass filters of the gyroscope and of its
+  // derivative (IMU_GYRO_CUTOFF, IMU_DGYRO_CUTOFF)
+  Eigen::Vector3d rate_d{0.0, 0.0, 0.0};  // angular acceleration per measured angular acceleration
+  double gyro_cutoff_hz = 40.0;
+  double dgyro_cutoff_hz = 30.0;
+  FlightControllerImu imu;
 };
 
 struct SubAircraft {

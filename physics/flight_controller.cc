@@ -2,12 +2,56 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace iapsim::physics {
 
 bool SubAircraftSetpoint::IsValid() const {
   return std::isfinite(thrust_N) && q_WS.coeffs().allFinite() && std::abs(q_WS.norm() - 1.0) < 1e-6 &&
          w_WS_S.allFinite() && thrust_W_N.allFinite() && torque_S_Nm.allFinite();
+}
+
+ButterworthLowPass::ButterworthLowPass(double cutoff_hz, double sample_hz) {
+  if (!(cutoff_hz > 0.0 && cutoff_hz < sample_hz / 2.0)) {
+    throw std::invalid_argument("a low-pass cutoff must lie between 0 and half the sample rate");
+  }
+  // H(s) = 1 / (s² + √2 s + 1) at s = (1/Ω) (1 − z⁻¹)/(1 + z⁻¹), Ω = tan(π f_c / f_s)
+  const double omega = std::tan(M_PI * cutoff_hz / sample_hz);
+  const double scale = 1.0 + std::sqrt(2.0) * omega + omega * omega;
+  b0_ = omega * omega / scale;
+  b1_ = 2.0 * b0_;
+  b2_ = b0_;
+  a1_ = 2.0 * (omega * omega - 1.0) / scale;
+  a2_ = (1.0 - std::sqrt(2.0) * omega + omega * omega) / scale;
+}
+
+Eigen::Vector3d ButterworthLowPass::Apply(const Eigen::Vector3d& input) {
+  const Eigen::Vector3d state = input - a1_ * delay1_ - a2_ * delay2_;
+  const Eigen::Vector3d output = b0_ * state + b1_ * delay1_ + b2_ * delay2_;
+  delay2_ = delay1_;
+  delay1_ = state;
+  return output;
+}
+
+void ButterworthLowPass::Reset(const Eigen::Vector3d& input) {
+  delay1_ = delay2_ = input / (1.0 + a1_ + a2_);
+}
+
+GyroFilter::GyroFilter(const model::FlightControllerGains& gains, double step_s)
+    : step_s_(step_s),
+      rate_filter_(gains.gyro_cutoff_hz, 1.0 / step_s),
+      acceleration_filter_(gains.dgyro_cutoff_hz, 1.0 / step_s) {}
+
+void GyroFilter::Update(const Eigen::Vector3d& gyro_S_radps) {
+  if (!started_) {
+    rate_filter_.Reset(gyro_S_radps);
+    acceleration_filter_.Reset(Eigen::Vector3d::Zero());
+    last_gyro_S_radps_ = gyro_S_radps;
+    started_ = true;
+  }
+  rate_S_radps_ = rate_filter_.Apply(gyro_S_radps);
+  acceleration_S_radps2_ = acceleration_filter_.Apply((gyro_S_radps - last_gyro_S_radps_) / step_s_);
+  last_gyro_S_radps_ = gyro_S_radps;
 }
 
 FlightController::FlightController(const model::FlightControllerGains& gains,
@@ -47,7 +91,8 @@ Eigen::Vector3d FlightController::RateSetpoint(const Eigen::Quaterniond& q_WS_se
 }
 
 bool FlightController::Update(const SubAircraftSetpoint& setpoint, const Eigen::Quaterniond& q_WS,
-                              const Eigen::Vector3d& w_WS_S, double dt_s, RotorVector* thrusts_N) {
+                              const Eigen::Vector3d& w_WS_S, const Eigen::Vector3d& alpha_WS_S, double dt_s,
+                              RotorVector* thrusts_N) {
   const Eigen::Vector3d rate_setpoint = setpoint.mode == SubAircraftSetpoint::Mode::kBodyRate
                                             ? setpoint.w_WS_S
                                             : RateSetpoint(setpoint.q_WS, q_WS);
@@ -57,7 +102,9 @@ bool FlightController::Update(const SubAircraftSetpoint& setpoint, const Eigen::
     rate_integral_rad_s2_ = rate_integral_rad_s2_.cwiseMax(-gains_.rate_integral_limit_rad_s2)
                                 .cwiseMin(gains_.rate_integral_limit_rad_s2);
   }
-  const Eigen::Vector3d angular_acceleration = gains_.rate_p_per_s.cwiseProduct(rate_error) + rate_integral_rad_s2_;
+  // PX4's rate controller: the D term acts on the measured angular acceleration, not on the error's
+  const Eigen::Vector3d angular_acceleration = gains_.rate_p_per_s.cwiseProduct(rate_error) +
+                                               rate_integral_rad_s2_ - gains_.rate_d.cwiseProduct(alpha_WS_S);
   const Eigen::Vector3d torque_S =
       inertia_S_kgm2_ * angular_acceleration + w_WS_S.cross(inertia_S_kgm2_ * w_WS_S);
   saturated_ = rotors_.Mix(setpoint.thrust_N, torque_S, thrusts_N);

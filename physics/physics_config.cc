@@ -284,6 +284,11 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
   }
   params.SetResolved("vehicles", resolved);
 
+  std::string sensing = "truth";
+  params.OptionalChoice("flight_controller_sensing", &sensing, {"truth", "gyro"});
+  config.simulation.flight_controller_sensing =
+      sensing == "gyro" ? FlightControllerSensing::kGyro : FlightControllerSensing::kTruth;
+
   if (params.Has("actuation")) {
     YamlMap actuation = params.Map("actuation");
     ActuationConfig& out = config.simulation.actuation;

@@ -240,7 +240,8 @@ TEST(FlightController, ReachesAnAttitudeSetpointOnAFreeQuadrotor) {
     rotors.Wrench_S(&force_S, &torque_S);
     world.AddTorque_W(body, state.q_WB * torque_S);  // no force: keep it in place
     RotorVector thrusts, speeds;
-    controller.Update(setpoint, state.q_WB, state.q_WB.conjugate() * state.w_WB_W, dt, &thrusts);
+    controller.Update(setpoint, state.q_WB, state.q_WB.conjugate() * state.w_WB_W, Eigen::Vector3d::Zero(),
+                      dt, &thrusts);
     rotors.SpeedsForThrusts(thrusts, &speeds);
     rotors.Step(speeds, dt);
     world.Step();

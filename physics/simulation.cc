@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "sensors/imu.h"
+
 namespace iapsim::physics {
 
 Simulation::Simulation(const SimulationConfig& config)
@@ -55,6 +57,24 @@ Simulation::Simulation(const SimulationConfig& config)
         } catch (const std::invalid_argument& e) {
           throw std::invalid_argument("vehicle '" + spec.name + "', " + sub.name +
                                       ": the actuation model: " + e.what());
+        }
+      }
+      if (config.flight_controller_sensing == FlightControllerSensing::kGyro) {
+        const model::FlightControllerImu& noise = sub.flight_controller.imu;
+        sensors::ImuConfig imu;
+        imu.noise = {noise.gyroscope_noise_density, noise.gyroscope_random_walk,
+                     noise.accelerometer_noise_density, noise.accelerometer_random_walk};
+        imu.rate_hz = 1.0 / config.step_s;
+        imu.gravity_mps2 = config.world.gravity_mps2;
+        imu.initial_gyroscope_bias_sigma_radps = noise.gyroscope_bias_sigma_radps;
+        imu.initial_accelerometer_bias_sigma_mps2 = noise.accelerometer_bias_sigma_mps2;
+        s.imu = std::make_unique<sensors::ImuModel>(
+            imu, config.seed + 0x9E3779B97F4A7C15ULL * (vehicles_.size() * 64 + i + 33));
+        try {
+          s.gyro = std::make_unique<GyroFilter>(sub.flight_controller, config.step_s);
+        } catch (const std::invalid_argument& e) {
+          throw std::invalid_argument("vehicle '" + spec.name + "', " + sub.name +
+                                      ": the flight controller: " + e.what());
         }
       }
       const int n = s.rotors->count();
@@ -302,8 +322,17 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
     out.thrust_W_N = state.q_WB * force_S;
     out.torque_S_Nm = torque_S;
     RotorVector thrusts, speeds;
-    const Eigen::Vector3d w_WS_S = state.q_WB.conjugate() * state.w_WB_W;
-    out.saturated = sim.controller->Update(sim.setpoint, state.q_WB, w_WS_S, dt, &thrusts);
+    Eigen::Vector3d w_WS_S = state.q_WB.conjugate() * state.w_WB_W;
+    Eigen::Vector3d alpha_WS_S = Eigen::Vector3d::Zero();  // no D term on the truth
+    if (sim.imu) {
+      sensors::BodyKinematics truth;  // the accelerometer's reading is not used: no acceleration needed
+      truth.q_WB = state.q_WB;
+      truth.w_WB_B_radps = w_WS_S;
+      sim.gyro->Update(sim.imu->Sample(truth, dt).w_I_radps);
+      w_WS_S = sim.gyro->rate_S_radps();
+      alpha_WS_S = sim.gyro->acceleration_S_radps2();
+    }
+    out.saturated = sim.controller->Update(sim.setpoint, state.q_WB, w_WS_S, alpha_WS_S, dt, &thrusts);
     if (sim.drive) {
       sim.drive->Step(thrusts, dt, sim.rotors.get());
       out.throttle = sim.drive->throttle();

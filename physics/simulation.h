@@ -30,6 +30,10 @@
 #include "physics/rotor.h"
 #include "physics/wind.h"
 
+namespace iapsim::sensors {
+class ImuModel;
+}
+
 namespace iapsim::physics {
 
 enum class TorqueReaction { kAir, kPlatform };
@@ -110,10 +114,17 @@ struct ActuationConfig {
   double state_of_charge = 1.0;  // of every pack at the start
 };
 
+/// What each flight controller measures its rotation with: the truth (the paper's simulator), or its own
+/// gyroscope (the vehicle file's flight_controller.imu noise, seeded per sub-aircraft) through PX4's
+/// low-pass filters, with the rate loop's D term on the filtered angular acceleration (physics/
+/// flight_controller.h's GyroFilter). Its attitude is still the truth.
+enum class FlightControllerSensing { kTruth, kGyro };
+
 struct SimulationConfig {
   double step_s = 0.001;
   AirConfig air;
   ActuationConfig actuation;
+  FlightControllerSensing flight_controller_sensing = FlightControllerSensing::kTruth;
   uint64_t seed = 0;  // the simulation's random streams (the command links' jitter)
   WorldConfig world;
   std::vector<VehicleSpec> vehicles;
@@ -209,6 +220,8 @@ class Simulation {
     std::unique_ptr<Rotors> rotors;
     std::unique_ptr<FlightController> controller;
     std::unique_ptr<ElectricDrive> drive;  // when the actuation is modelled
+    std::unique_ptr<sensors::ImuModel> imu;  // when the flight controller runs on its own gyroscope
+    std::unique_ptr<GyroFilter> gyro;
     SubAircraftSetpoint setpoint;
     // the command link, and the setpoints on their way by the step they arrive at (non-decreasing)
     bridge::LinkDelay link;

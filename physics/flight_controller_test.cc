@@ -1,0 +1,100 @@
+// The flight controller's measurement path (physics/flight_controller.h): PX4's two-pole low-pass against
+// the analytic response of the bilinear-transformed Butterworth filter, the gyroscope pipeline against a
+// ramp's closed form, and a hovering three-star whose flight controllers run on their own gyroscopes.
+#include "physics/flight_controller.h"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "bridge/config.h"
+#include "physics/physics_config.h"
+#include "physics/simulation.h"
+
+namespace iapsim::physics {
+namespace {
+
+// the steady amplitude of the filter's response to a unit sine at f_hz, from a whole number of periods
+double MeasuredGain(double cutoff_hz, double sample_hz, double f_hz) {
+  ButterworthLowPass filter(cutoff_hz, sample_hz);
+  const int settle = static_cast<int>(sample_hz), window = static_cast<int>(sample_hz);  // 1 s each
+  double in_phase = 0.0, quadrature = 0.0;
+  for (int k = 0; k < settle + window; ++k) {
+    const double phase = 2.0 * M_PI * f_hz * k / sample_hz;
+    const double y = filter.Apply(Eigen::Vector3d::Constant(std::sin(phase))).x();
+    if (k >= settle) {
+      in_phase += y * std::sin(phase);
+      quadrature += y * std::cos(phase);
+    }
+  }
+  return 2.0 * std::hypot(in_phase, quadrature) / window;
+}
+
+TEST(ButterworthLowPass, FollowsTheBilinearButterworthResponse) {
+  const double sample_hz = 1000.0, cutoff_hz = 40.0;
+  for (const double f_hz : {5.0, 20.0, 40.0, 80.0, 200.0}) {
+    // |H| = 1 / √(1 + (tan(π f / f_s) / tan(π f_c / f_s))⁴): the analog prototype at the warped frequency
+    const double warped = std::tan(M_PI * f_hz / sample_hz) / std::tan(M_PI * cutoff_hz / sample_hz);
+    EXPECT_NEAR(MeasuredGain(cutoff_hz, sample_hz, f_hz), 1.0 / std::sqrt(1.0 + std::pow(warped, 4)), 1e-3)
+        << f_hz;
+  }
+  EXPECT_NEAR(MeasuredGain(cutoff_hz, sample_hz, cutoff_hz), std::sqrt(0.5), 1e-3);  // −3 dB at the cutoff
+  ButterworthLowPass held(cutoff_hz, sample_hz);
+  held.Reset(Eigen::Vector3d(1.0, -2.0, 3.0));
+  EXPECT_LT((held.Apply(Eigen::Vector3d(1.0, -2.0, 3.0)) - Eigen::Vector3d(1.0, -2.0, 3.0)).norm(), 1e-12);
+  EXPECT_THROW(ButterworthLowPass(600.0, sample_hz), std::invalid_argument);
+}
+
+TEST(GyroFilter, GivesARampsRateLateByTheFiltersDelayAndItsSlopeExactly) {
+  model::FlightControllerGains gains;
+  const double step_s = 0.001;
+  GyroFilter gyro(gains, step_s);
+  const Eigen::Vector3d slope_radps2(2.0, -1.0, 0.5);
+  double t_s = 0.0;
+  for (int k = 0; k < 1000; ++k, t_s += step_s) gyro.Update(slope_radps2 * t_s);
+  t_s -= step_s;
+  EXPECT_LT((gyro.acceleration_S_radps2() - slope_radps2).norm(), 1e-9);
+  // a Butterworth pair lags a ramp by √2 / (2π f_c) (its group delay at DC)
+  const double delay_s = std::sqrt(2.0) / (2.0 * M_PI * gains.gyro_cutoff_hz);
+  EXPECT_LT((gyro.rate_S_radps() - slope_radps2 * (t_s - delay_s)).norm(),
+            0.01 * slope_radps2.norm() * delay_s);
+}
+
+std::string ThreeStarParams() {
+  return "vehicles:\n  - {name: iap, file: " + std::string(IAPSIM_SOURCE_DIR) +
+         "/configs/vehicles/three_star.yaml, position_m: [0, 0, -5]}\n";
+}
+
+TEST(FlightControllerSensing, ANoisyGyroscopeShakesTheHoverALittleAndRepeatsWithItsSeed) {
+  const auto hover = [](const std::string& sensing, uint64_t seed) {
+    bridge::YamlMap params(YAML::Load(ThreeStarParams() + "flight_controller_sensing: " + sensing + "\n"),
+                           "test.yaml");
+    PhysicsConfig config = ReadPhysicsConfig(params, "test.yaml", 0.001);
+    config.simulation.seed = seed;
+    Simulation sim(config.simulation);
+    double largest_rate_radps = 0.0;
+    while (sim.time_s() < 2.0) {
+      sim.Step();
+      const int body = sim.output(0).sub_aircraft_bodies[0];
+      largest_rate_radps = std::max(largest_rate_radps, sim.world().body(body).w_WB_W.norm());
+    }
+    return largest_rate_radps;
+  };
+  const double truth = hover("truth", 1), gyro = hover("gyro", 1);
+  std::printf("largest sub-aircraft rate in a 2 s hover: truth %.2e rad/s, gyroscope %.2e rad/s\n", truth,
+              gyro);
+  EXPECT_LT(truth, 1e-6);  // level trim holds exactly
+  EXPECT_GT(gyro, 1e-3);   // noise and turn-on bias move it ...
+  EXPECT_LT(gyro, 0.05);   // ... by a few hundredths of a rad/s at most
+  EXPECT_EQ(hover("gyro", 1), gyro);
+  EXPECT_NE(hover("gyro", 2), gyro);
+
+  bridge::YamlMap wrong(YAML::Load(ThreeStarParams() + "flight_controller_sensing: magic\n"), "test.yaml");
+  EXPECT_THROW(ReadPhysicsConfig(wrong, "test.yaml", 0.001), bridge::ConfigError);
+}
+
+}  // namespace
+}  // namespace iapsim::physics
