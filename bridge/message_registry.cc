@@ -19,6 +19,7 @@
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/BatteryState.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
@@ -60,6 +61,7 @@ std::map<std::string, RegisteredType> BuildRegistry() {
   Register<nav_msgs::Odometry>(&types);
   Register<nav_msgs::Path>(&types);
   Register<rosgraph_msgs::Clock>(&types);
+  Register<sensor_msgs::BatteryState>(&types);
   Register<sensor_msgs::CameraInfo>(&types);
   Register<sensor_msgs::CompressedImage>(&types);
   Register<sensor_msgs::Image>(&types);

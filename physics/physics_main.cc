@@ -18,6 +18,7 @@
 #include <iapsim_msgs/LatchCommand.h>
 #include <iapsim_msgs/LatchEvent.h>
 #include <nav_msgs/Odometry.h>
+#include <sensor_msgs/BatteryState.h>
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -100,10 +101,13 @@ class PhysicsNode : public bridge::Process {
       bus.wrench_topic = prefix + "/wrench/external";
       for (const auto& sub : spec.vehicle.sub_aircraft) {
         bus.sub_odom_topics.push_back(prefix + "/" + sub.name + "/odom");
+        bus.battery_topics.push_back(prefix + "/" + sub.name + "/battery");
         bus.joint_names.push_back(sub.name + "_joint");
       }
     }
     latches_.resize(sim_->latch_count());
+    battery_every_ =
+        std::max<uint64_t>(1, std::llround(1.0 / (kBatteryRate_hz * context.scenario.clock.step_s)));
   }
 
   void Setup(bridge::Bus& bus) override {
@@ -131,6 +135,9 @@ class PhysicsNode : public bridge::Process {
     header.stamp = bridge::ToRosTime(step.stamp_ns);
     header.frame_id = "W";
     for (int v = 0; v < sim_->vehicle_count(); ++v) Publish(v, step.step, header);
+    if (config_.simulation.actuation.enabled && step.step % battery_every_ == 0) {
+      for (int v = 0; v < sim_->vehicle_count(); ++v) PublishBatteries(v, header);
+    }
     if (config_.publish_contacts) PublishContacts(step.step, header);
     for (int l = 0; l < sim_->latch_count(); ++l) PublishLatchEvents(l, header);
   }
@@ -174,8 +181,12 @@ class PhysicsNode : public bridge::Process {
     geometry_msgs::WrenchStamped wrench;
     // made once: nothing in the step allocates for a name
     std::string state_topic, odom_topic, wrench_topic;
-    std::vector<std::string> sub_odom_topics, joint_names;
+    std::vector<std::string> sub_odom_topics, joint_names, battery_topics;
+    sensor_msgs::BatteryState battery;
   };
+  // a power module's rate (PX4 publishes battery_status at about 10 Hz)
+  static constexpr double kBatteryRate_hz = 10.0;
+  uint64_t battery_every_ = 1;
 
   void OnCommand(int v, const iapsim_msgs::IapCommand& command) {
     VehicleBus& vehicle = vehicles_[v];
@@ -303,6 +314,32 @@ class PhysicsNode : public bridge::Process {
     bus.wrench.header.frame_id = state.bodies[0].name;
     bus.wrench.wrench = state.external_wrench_P;
     bus_->Publish(bus.wrench_topic, bus.wrench);
+  }
+
+  // each sub-aircraft's pack as a power module reports it (ROS: current negative while discharging)
+  void PublishBatteries(int v, const std_msgs::Header& header) {
+    const VehicleSpec& spec = sim_->vehicle(v);
+    VehicleBus& bus = vehicles_[v];
+    sensor_msgs::BatteryState& battery = bus.battery;
+    for (size_t s = 0; s < bus.battery_topics.size(); ++s) {
+      const model::Battery& pack = spec.vehicle.sub_aircraft[s].battery;
+      const SubAircraftOutput& out = sim_->output(v).sub_aircraft[s];
+      battery.header = header;
+      battery.header.frame_id = spec.vehicle.sub_aircraft[s].name;
+      battery.voltage = static_cast<float>(out.battery_voltage_V);
+      battery.current = static_cast<float>(-out.battery_current_A);
+      battery.charge = static_cast<float>(out.state_of_charge * pack.capacity_Ah);
+      battery.capacity = static_cast<float>(pack.capacity_Ah);
+      battery.design_capacity = battery.capacity;
+      battery.percentage = static_cast<float>(out.state_of_charge);
+      battery.power_supply_status = sensor_msgs::BatteryState::POWER_SUPPLY_STATUS_DISCHARGING;
+      battery.power_supply_health = sensor_msgs::BatteryState::POWER_SUPPLY_HEALTH_GOOD;
+      battery.power_supply_technology = sensor_msgs::BatteryState::POWER_SUPPLY_TECHNOLOGY_LIPO;
+      battery.present = true;
+      battery.cell_voltage.assign(pack.cells, static_cast<float>(out.battery_voltage_V / pack.cells));
+      battery.location = spec.name + "/" + spec.vehicle.sub_aircraft[s].name;
+      bus_->Publish(bus.battery_topics[s], battery);
+    }
   }
 
   void PublishContacts(uint64_t step, const std_msgs::Header& header) {

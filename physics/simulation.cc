@@ -96,6 +96,10 @@ Simulation::Simulation(const SimulationConfig& config)
       sub_out.rotor_speeds_rad_s = sim->sub_aircraft.back().rotors->speeds_rad_s();
       sub_out.thrust_ratio = RotorVector::Ones(n);
       sub_out.throttle = RotorVector::Zero(n);
+      if (const ElectricDrive* drive = sim->sub_aircraft.back().drive.get()) {  // the pack at rest
+        sub_out.battery_voltage_V = drive->voltage_V();
+        sub_out.state_of_charge = drive->battery().state_of_charge();
+      }
       out.sub_aircraft.push_back(sub_out);
     }
     vehicles_.push_back(std::move(sim));

@@ -2,6 +2,7 @@
 // process with a constant command source on the bus; the recorded platform stays put for 10 s.
 #include <gtest/gtest.h>
 #include <iapsim_msgs/IapState.h>
+#include <sensor_msgs/BatteryState.h>
 #include <unistd.h>
 
 #include <Eigen/Core>
@@ -58,6 +59,40 @@ TEST(HoverFlight, ThreeStarHoversOnTheBusForTenSeconds) {
   EXPECT_EQ(iap["commands_received"], 2001);  // 200 Hz for 10 s, steps 0..2000
   EXPECT_EQ(iap["commands_rejected"], 0);
   EXPECT_EQ(iap["saturated_sub_aircraft_steps"], 0);
+  std::filesystem::remove_all(out);
+}
+
+// With the actuation modelled, each sub-aircraft's pack is on the bus as a power module reports it.
+TEST(HoverFlight, PublishesEachSubAircraftsBatteryWhenTheActuationIsModelled) {
+  const std::filesystem::path out =
+      std::filesystem::path(::testing::TempDir()) / ("iapsim-battery-" + std::to_string(getpid()));
+  LaunchOptions options;
+  options.scenario_path = std::string(IAPSIM_SOURCE_DIR) + "/configs/scenarios/three_star_hover.yaml";
+  options.overrides = {"duration_s=2", "processes.physics.params.actuation={state_of_charge: 0.9}"};
+  options.out_dir = out.string();
+  options.bin_dir = ExecutableDir();
+  const LaunchResult result = Launch(options);
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+
+  BagReader bag(result.run_dir + "/run.bag");
+  int messages = 0;
+  float first_charge_Ah = 0.0f, last_charge_Ah = 0.0f;
+  bag.ForEach({"/iap/sub2/battery"}, [&](const BagMessage& m) {
+    sensor_msgs::BatteryState battery;
+    std::string error;
+    EXPECT_TRUE(Decode(m.bytes, &battery, &error)) << error;
+    if (messages++ == 0) first_charge_Ah = battery.charge;
+    last_charge_Ah = battery.charge;
+    EXPECT_EQ(battery.location, "iap/sub2");
+    EXPECT_EQ(battery.cell_voltage.size(), 4u);
+    EXPECT_GT(battery.voltage, 14.0f);  // a 4S pack at 90 % under the hover current
+    EXPECT_LT(battery.voltage, 16.8f);
+    if (messages > 1) EXPECT_LT(battery.current, -10.0f);  // discharging, ROS's sign
+    return true;
+  });
+  EXPECT_EQ(messages, 21);  // 10 Hz over steps 0 … 2 s
+  EXPECT_NEAR(first_charge_Ah, 4.5f, 1e-3f);
+  EXPECT_LT(last_charge_Ah, first_charge_Ah);
   std::filesystem::remove_all(out);
 }
 
