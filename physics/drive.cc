@@ -88,14 +88,18 @@ double ElectricDrive::ThrottleForThrust(double thrust_N) const {
 }
 
 void ElectricDrive::Step(const RotorVector& thrusts_N, double dt_s, Rotors* rotors) {
+  if (dt_s != step_s_) {  // the exact first-order steps' factors, once per step length
+    step_s_ = dt_s;
+    filter_gain_ = 1.0 - std::exp(-dt_s / kVoltageFilterTimeConstant_s);
+    up_gain_ = 1.0 - std::exp(-dt_s / rotors_.electric.time_constant_up_s);
+    down_gain_ = 1.0 - std::exp(-dt_s / rotors_.electric.time_constant_down_s);
+  }
   voltage_V_ = battery_sag_ ? battery_.Voltage_V(current_A_) : battery_.charged_voltage_V();
   if (use_battery_scale_) {
-    filtered_voltage_V_ +=
-        (voltage_V_ - filtered_voltage_V_) * (1.0 - std::exp(-dt_s / kVoltageFilterTimeConstant_s));
+    filtered_voltage_V_ += (voltage_V_ - filtered_voltage_V_) * filter_gain_;
     battery_scale_ = std::clamp(battery_.charged_voltage_V() / filtered_voltage_V_, 1.0, 1.3);
   }
-  const double up = 1.0 - std::exp(-dt_s / rotors_.electric.time_constant_up_s);
-  const double down = 1.0 - std::exp(-dt_s / rotors_.electric.time_constant_down_s);
+  const double up = up_gain_, down = down_gain_;
   RotorVector speeds = rotors->speeds_rad_s();
   current_A_ = 0.0;
   for (int j = 0; j < speeds.size(); ++j) {

@@ -103,6 +103,7 @@ class ElectricDrive {
   bool use_battery_scale_;
   double battery_scale_ = 1.0;
   double filtered_voltage_V_;    // what PX4's battery scale sees
+  double step_s_ = 0.0, filter_gain_ = 0.0, up_gain_ = 0.0, down_gain_ = 0.0;  // for step_s_
   double back_emf_V_per_rad_s_;  // k_e = k_t
   double thrust_model_factor_;
   double full_throttle_thrust_N_;

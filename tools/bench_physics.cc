@@ -69,8 +69,9 @@ double Measure(const model::Vehicle& vehicle, bool contacts, const physics::Worl
 
 // In the air as above, in a 4 m/s wind with light Dryden turbulence, drag on every part (the F450's C_d·A as
 // in the README's example), rotor drag, ground effect and downwash (issue 19's air), and joint friction and
-// cone limits (the README's example): what those models cost against still air and ideal joints.
-double MeasureInGustyAir(model::Vehicle vehicle, bool downwash = true) {
+// cone limits (the README's example): what those models cost against still air and ideal joints. `actuated`
+// adds the electric drives and the flight controllers' own gyroscopes (issue 19's actuation).
+double MeasureInGustyAir(model::Vehicle vehicle, bool downwash = true, bool actuated = false) {
   vehicle.platform_drag_area_B_m2 = Eigen::Vector3d(0.01, 0.01, 0.04);
   for (auto& sub : vehicle.sub_aircraft) {
     sub.drag_area_B_m2 = Eigen::Vector3d(0.03, 0.03, 0.06);
@@ -81,6 +82,8 @@ double MeasureInGustyAir(model::Vehicle vehicle, bool downwash = true) {
   config.air.wind_W_mps = Eigen::Vector3d(4.0, 0.0, 0.0);
   config.air.turbulence = true;
   config.air.downwash = downwash;
+  config.actuation.enabled = actuated;
+  if (actuated) config.flight_controller_sensing = physics::FlightControllerSensing::kGyro;
   return physics::MeasureEpisodeStepsPerSecond(config, kEpisodeSteps, kSecondsPerFigure);
 }
 
@@ -193,6 +196,7 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
       physics::MeasureEpisodeStepsPerSecond(Scene(three_star, false, {}), kEpisodeSteps, kSecondsPerFigure);
   const double gusty = MeasureInGustyAir(three_star);
   const double no_downwash = MeasureInGustyAir(three_star, false);
+  const double actuated = MeasureInGustyAir(three_star, true, true);
   const double bare = physics::MeasureBareMultibodyStepsPerSecond(three_star, n_star, kSecondsPerFigure);
   std::printf("  %-38s %10.0f  (%.2f of bare Bullet)\n", (three_star.name + ", in the air").c_str(), air,
               air / bare);
@@ -204,6 +208,8 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
               (three_star.name + ", gusty air, joint friction").c_str(), gusty, gusty / still, still);
   std::printf("  %-38s %10.0f  (%.2f of still air; with it %.2f of this)\n", "... without downwash", no_downwash,
               no_downwash / still, gusty / no_downwash);
+  std::printf("  %-38s %10.0f  (%.2f of still air)\n", "... with electric drives, FC gyroscopes", actuated,
+              actuated / still);
   std::printf("  %-38s %10.0f\n", "bare Bullet multibody, same size", bare);
   (*report)["physics"]["vehicle"] = three_star.name;
   (*report)["physics"]["air_steps_per_s"] = air;
@@ -212,6 +218,7 @@ int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report) {
   (*report)["physics"]["bare_steps_per_s"] = bare;
   (*report)["physics"]["gusty_air_steps_per_s"] = gusty;
   (*report)["physics"]["gusty_air_no_downwash_steps_per_s"] = no_downwash;
+  (*report)["physics"]["gusty_air_actuated_steps_per_s"] = actuated;
   (*report)["physics"]["still_air_episode_steps_per_s"] = still;
   BenchContact(three_star, air, &(*report)["physics"]);
 
