@@ -6,6 +6,10 @@
 
 namespace iapsim::physics {
 
+namespace {
+constexpr double kVoltageFilterTimeConstant_s = 1.0;  // PX4's Battery: _voltage_filter_v, 1 s
+}  // namespace
+
 double LithiumPolymerCellVoltage_V(double state_of_charge) {
   const double s = std::clamp(state_of_charge, 0.0, 1.0);
   return -1.031 * std::exp(-35.0 * s) + 3.685 + s * (0.2156 + s * (-0.1178 + s * 0.3201));
@@ -13,10 +17,6 @@ double LithiumPolymerCellVoltage_V(double state_of_charge) {
 
 BatteryPack::BatteryPack(const model::Battery& battery, double state_of_charge)
     : battery_(battery), state_of_charge_(std::clamp(state_of_charge, 0.0, 1.0)) {}
-
-namespace {
-constexpr double kVoltageFilterTimeConstant_s = 1.0;  // PX4's Battery: _voltage_filter_v, 1 s
-}  // namespace
 
 double BatteryPack::Voltage_V(double current_A) const {
   const double cell_V = LithiumPolymerCellVoltage_V(state_of_charge_) - polarization_V_ -

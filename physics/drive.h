@@ -11,16 +11,14 @@
 //   for, unless the flight controller scales its thrust by the charged voltage over the pack's voltage,
 //   low-passed with a 1 s time constant, by 1 to 1.3 (PX4's MC_BAT_SCALE_EN and its Battery::computeScale;
 //   off by default in PX4).
-// - Each ESC applies u·V to its motor, u clamped to [0, 1] (the ESC's saturation), and draws u times the
-// motor
-//   current from the battery (a lossless buck converter).
+// - Each ESC applies u·V to its motor, u clamped to [0, 1] (the ESC's saturation), and draws u times
+//   the motor current from the battery (a lossless buck converter).
 // - Each motor is a DC motor (a brushless motor commutated by its ESC; Quan Quan, "Introduction to
-// Multicopter
-//   Design and Control", Springer 2017, ch. 4): at a steady speed u V = k_e ω + R I with I = k_m ω² / k_t +
-//   I₀, the current whose torque balances the propeller's drag k_m ω² plus the no-load current, and k_e = k_t
-//   = 60 / (2π Kv) in SI units. The speed approaches that steady speed first-order, with one time constant up
-//   and another down (RotorS' and PX4 Gazebo's motor model: an ESC that does not brake actively spins down
-//   more slowly than up).
+//   Multicopter Design and Control", Springer 2017, ch. 4): at a steady speed u V = k_e ω + R I with
+//   I = k_m ω² / k_t + I₀, the current whose torque balances the propeller's drag k_m ω² plus the no-load
+//   current, and k_e = k_t = 60 / (2π Kv) in SI units. The speed approaches that steady speed first-order,
+//   with one time constant up and another down (RotorS' and PX4 Gazebo's motor model: an ESC that does not
+//   brake actively spins down more slowly than up).
 // - The battery's cells in series, each a Thevenin model: open-circuit voltage over state of charge behind an
 //   ohmic resistance and one RC pair for polarisation (Plett, "Battery Management Systems", vol. 1, 2015,
 //   ch. 2), with the charge counted in coulombs.

@@ -11,7 +11,9 @@
 #include <string>
 
 #include "bridge/config.h"
+#include "model/vehicle.h"
 #include "physics/physics_config.h"
+#include "physics/rotor.h"
 #include "physics/simulation.h"
 
 namespace iapsim::physics {
@@ -61,6 +63,36 @@ TEST(GyroFilter, GivesARampsRateLateByTheFiltersDelayAndItsSlopeExactly) {
   const double delay_s = std::sqrt(2.0) / (2.0 * M_PI * gains.gyro_cutoff_hz);
   EXPECT_LT((gyro.rate_S_radps() - slope_radps2 * (t_s - delay_s)).norm(),
             0.01 * slope_radps2.norm() * delay_s);
+}
+
+// PX4's D term acts on the measured angular acceleration: D α asks for the same torque as a rate error
+// smaller by D α / P (no integral, no gyroscopic term at rest).
+TEST(FlightController, TheDTermActsOnTheMeasuredAngularAcceleration) {
+  const model::Vehicle vehicle =
+      model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star.yaml");
+  model::SubAircraft sub = vehicle.sub_aircraft[0];
+  sub.flight_controller.rate_i_per_s2.setZero();
+  ASSERT_GT(sub.flight_controller.rate_d.x(), 0.0);
+  Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());
+  SubAircraftSetpoint setpoint;
+  setpoint.mode = SubAircraftSetpoint::Mode::kBodyRate;
+  setpoint.thrust_N = 20.0;
+  setpoint.w_WS_S = Eigen::Vector3d(0.5, -0.3, 0.0);
+  const Eigen::Vector3d alpha(2.0, 1.0, 0.0);
+  const model::FlightControllerGains& gains = sub.flight_controller;
+  RotorVector with_d, equivalent, without;
+  FlightController(gains, sub.mass.inertia_B_kgm2, rotors)
+      .Update(setpoint, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero(), alpha, 0.001, &with_d);
+  SubAircraftSetpoint smaller = setpoint;
+  smaller.w_WS_S -= gains.rate_d.cwiseProduct(alpha).cwiseQuotient(gains.rate_p_per_s);
+  FlightController(gains, sub.mass.inertia_B_kgm2, rotors)
+      .Update(smaller, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+              0.001, &equivalent);
+  FlightController(gains, sub.mass.inertia_B_kgm2, rotors)
+      .Update(setpoint, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+              0.001, &without);
+  EXPECT_LT((with_d - equivalent).norm(), 1e-12);
+  EXPECT_GT((with_d - without).norm(), 0.01);
 }
 
 std::string ThreeStarParams() {

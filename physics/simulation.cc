@@ -328,11 +328,8 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
     RotorVector thrusts, speeds;
     Eigen::Vector3d w_WS_S = state.q_WB.conjugate() * state.w_WB_W;
     Eigen::Vector3d alpha_WS_S = Eigen::Vector3d::Zero();  // no D term on the truth
-    if (sim.imu) {
-      sensors::BodyKinematics truth;  // the accelerometer's reading is not used: no acceleration needed
-      truth.q_WB = state.q_WB;
-      truth.w_WB_B_radps = w_WS_S;
-      sim.gyro->Update(sim.imu->Sample(truth, dt).w_I_radps);
+    if (sim.imu) {  // the IMU mounted level at the sub-aircraft's origin: I = S
+      sim.gyro->Update(sim.imu->SampleGyroscope(w_WS_S, dt));
       w_WS_S = sim.gyro->rate_S_radps();
       alpha_WS_S = sim.gyro->acceleration_S_radps2();
     }

@@ -116,8 +116,8 @@ struct ActuationConfig {
 
 /// What each flight controller measures its rotation with: the truth (the paper's simulator), or its own
 /// gyroscope (the vehicle file's flight_controller.imu noise, seeded per sub-aircraft) through PX4's
-/// low-pass filters, with the rate loop's D term on the filtered angular acceleration (physics/
-/// flight_controller.h's GyroFilter). Its attitude is still the truth.
+/// low-pass filters, with the rate loop's D term on the filtered angular acceleration (GyroFilter in
+/// physics/flight_controller.h). Its attitude is still the truth.
 enum class FlightControllerSensing { kTruth, kGyro };
 
 struct SimulationConfig {

@@ -59,4 +59,13 @@ ImuSample ImuModel::Sample(const BodyKinematics& truth, double dt_s) {
   return sample;
 }
 
+Eigen::Vector3d ImuModel::SampleGyroscope(const Eigen::Vector3d& w_WB_B_radps, double dt_s) {
+  if (!(dt_s > 0.0)) throw std::invalid_argument("ImuModel::SampleGyroscope: dt_s must be positive");
+  const ImuNoise& n = config_.noise;
+  const double sqrt_dt = std::sqrt(dt_s);
+  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_dt * Gaussian3();
+  return config_.q_BI.conjugate() * w_WB_B_radps + gyroscope_bias_radps_ +
+         n.gyroscope_noise_density / sqrt_dt * Gaussian3();
+}
+
 }  // namespace iapsim::sensors

@@ -68,6 +68,10 @@ class ImuModel {
   /// The reading `dt_s` after the previous one (dt_s > 0): each bias first takes its random-walk step
   /// (b_t = b_{t−1} + η_b, as in §V-D), then the reading is the ideal one plus bias plus white noise.
   ImuSample Sample(const BodyKinematics& truth, double dt_s);
+  /// The gyroscope alone, `dt_s` after the previous reading, for a consumer that reads no specific force
+  /// (a flight controller's rate loop): its bias walks and its white noise as in Sample, the accelerometer's
+  /// left untouched. `w_WB_B_radps` is B's angular velocity in B; the reading is in I.
+  Eigen::Vector3d SampleGyroscope(const Eigen::Vector3d& w_WB_B_radps, double dt_s);
 
   /// The biases in the last sample (in I).
   const Eigen::Vector3d& gyroscope_bias_radps() const { return gyroscope_bias_radps_; }

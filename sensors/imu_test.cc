@@ -145,6 +145,38 @@ TEST(Imu, InitialBiasIsTheConfiguredMeanPlusItsSpread) {
   EXPECT_NEAR(std::sqrt(sum2 / (3 * instances)), 0.05, 0.05 * 0.03);
 }
 
+TEST(Imu, TheGyroscopeAloneHasItsDensitysNoiseItsBiasWalkAndItsMounting) {
+  ImuConfig config;  // Table VI
+  config.q_BI = Eigen::AngleAxisd(M_PI / 2.0, Eigen::Vector3d::UnitZ());
+  config.noise.gyroscope_random_walk = 0.0;
+  ImuModel white(config, 5);
+  const int n = 100000;
+  const double dt = 0.001;
+  const Eigen::Vector3d w_B(0.3, -0.1, 0.2), w_I = config.q_BI.conjugate() * w_B;  // (−0.1, −0.3, 0.2)
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), sum2 = Eigen::Vector3d::Zero();
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d error = white.SampleGyroscope(w_B, dt) - w_I;
+    sum += error;
+    sum2 += error.cwiseAbs2();
+  }
+  const double sigma = config.noise.gyroscope_noise_density / std::sqrt(dt);
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(sum[axis] / n, 0.0, 4.0 * sigma / std::sqrt(n));
+    EXPECT_NEAR(std::sqrt(sum2[axis] / n), sigma, 0.02 * sigma);
+  }
+  // the bias walks by random_walk·√t: its spread over many seeds after 1 s
+  ImuConfig walking = NoiseFree();
+  walking.noise.gyroscope_random_walk = 0.01;
+  double bias2 = 0.0;
+  const int instances = 2000;
+  for (int seed = 0; seed < instances; ++seed) {
+    ImuModel imu(walking, seed);
+    for (int i = 0; i < 100; ++i) imu.SampleGyroscope(Eigen::Vector3d::Zero(), 0.01);
+    bias2 += imu.gyroscope_bias_radps().squaredNorm();
+  }
+  EXPECT_NEAR(std::sqrt(bias2 / (3 * instances)), 0.01, 0.01 * 0.04);
+}
+
 TEST(Imu, SameSeedSameSamplesOtherSeedOthers) {
   const ImuConfig config;
   ImuModel a(config, 42), b(config, 42), c(config, 43);
