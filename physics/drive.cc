@@ -7,7 +7,24 @@
 namespace iapsim::physics {
 
 namespace {
+
 constexpr double kVoltageFilterTimeConstant_s = 1.0;  // PX4's Battery: _voltage_filter_v, 1 s
+
+double BackEmf_V_per_rad_s(const model::RotorSet& rotors) {
+  return 60.0 / (2.0 * M_PI * rotors.electric.kv_rpm_per_V);
+}
+
+// The motor equation's steady speed: R k_m / k_t ω² + k_e ω + (R I₀ − u V) = 0, the positive root in a form
+// that does not cancel.
+double SteadySpeed(const model::RotorSet& rotors, double throttle, double voltage_V) {
+  const double k_e = BackEmf_V_per_rad_s(rotors);
+  const double R = rotors.electric.resistance_ohm;
+  const double a = R * rotors.torque_coefficient / k_e;
+  const double drive_V = std::clamp(throttle, 0.0, 1.0) * voltage_V - R * rotors.electric.no_load_current_A;
+  if (drive_V <= 0.0) return 0.0;
+  return 2.0 * drive_V / (k_e + std::sqrt(k_e * k_e + 4.0 * a * drive_V));
+}
+
 }  // namespace
 
 double LithiumPolymerCellVoltage_V(double state_of_charge) {
@@ -41,13 +58,15 @@ ElectricDrive::ElectricDrive(const model::RotorSet& rotors, const model::Battery
     throw std::invalid_argument("the rotors have no electric model (rotors.electric in the vehicle file)");
   }
   if (battery.cells < 1) throw std::invalid_argument("there is no battery (battery in the vehicle file)");
-  back_emf_V_per_rad_s_ = 60.0 / (2.0 * M_PI * rotors.electric.kv_rpm_per_V);
   throttle_ = RotorVector::Zero(static_cast<int>(rotors.hub_S_m.size()));
   voltage_V_ = battery_sag ? battery_.Voltage_V(0.0) : battery_.charged_voltage_V();
   filtered_voltage_V_ = voltage_V_;
+  CalibrateOn(rotors);
+}
 
+void ElectricDrive::CalibrateOn(const model::RotorSet& rotors) {
   const double charged_V = battery_.charged_voltage_V();
-  const double full_speed_rad_s = SteadySpeed_rad_s(1.0, charged_V);
+  const double full_speed_rad_s = SteadySpeed(rotors, 1.0, charged_V);
   if (!(full_speed_rad_s > 0.0)) {
     throw std::invalid_argument("the motors do not turn at full throttle on a charged battery");
   }
@@ -57,7 +76,7 @@ ElectricDrive::ElectricDrive(const model::RotorSet& rotors, const model::Battery
     double numerator = 0.0, denominator = 0.0;
     for (int i = 0; i <= 100; ++i) {
       const double u = i / 100.0;
-      const double t = std::pow(SteadySpeed_rad_s(u, charged_V) / full_speed_rad_s, 2);
+      const double t = std::pow(SteadySpeed(rotors, u, charged_V) / full_speed_rad_s, 2);
       numerator += (t - u) * (u * u - u);
       denominator += (u * u - u) * (u * u - u);
     }
@@ -66,17 +85,11 @@ ElectricDrive::ElectricDrive(const model::RotorSet& rotors, const model::Battery
 }
 
 double ElectricDrive::SteadySpeed_rad_s(double throttle, double voltage_V) const {
-  // R k_m / k_t ω² + k_e ω + (R I₀ − u V) = 0, the positive root in a form that does not cancel
-  const double k_e = back_emf_V_per_rad_s_;
-  const double R = rotors_.electric.resistance_ohm;
-  const double a = R * rotors_.torque_coefficient / k_e;
-  const double drive_V = std::clamp(throttle, 0.0, 1.0) * voltage_V - R * rotors_.electric.no_load_current_A;
-  if (drive_V <= 0.0) return 0.0;
-  return 2.0 * drive_V / (k_e + std::sqrt(k_e * k_e + 4.0 * a * drive_V));
+  return SteadySpeed(rotors_, throttle, voltage_V);
 }
 
 double ElectricDrive::MotorCurrent_A(double speed_rad_s) const {
-  return rotors_.torque_coefficient * speed_rad_s * speed_rad_s / back_emf_V_per_rad_s_ +
+  return rotors_.torque_coefficient * speed_rad_s * speed_rad_s / BackEmf_V_per_rad_s(rotors_) +
          rotors_.electric.no_load_current_A;
 }
 

@@ -68,6 +68,10 @@ class ElectricDrive {
   ElectricDrive(const model::RotorSet& rotors, const model::Battery& battery, double state_of_charge,
                 bool battery_sag, bool battery_scale);
 
+  /// Calibrates the flight controller's thrust curve (THR_MDL_FAC when fitted, and the full-throttle thrust)
+  /// on these rotors instead: the vehicle file's, where the physics flies others (model mismatch).
+  void CalibrateOn(const model::RotorSet& rotors);
+
   /// The speed a motor settles at under `throttle` (clamped to [0, 1]) from a supply of `voltage_V`.
   double SteadySpeed_rad_s(double throttle, double voltage_V) const;
   /// The current a motor draws spinning its propeller at `speed_rad_s`.
@@ -102,7 +106,6 @@ class ElectricDrive {
   double battery_scale_ = 1.0;
   double filtered_voltage_V_;    // what PX4's battery scale sees
   double step_s_ = 0.0, filter_gain_ = 0.0, up_gain_ = 0.0, down_gain_ = 0.0;  // for step_s_
-  double back_emf_V_per_rad_s_;  // k_e = k_t
   double thrust_model_factor_;
   double full_throttle_thrust_N_;
   RotorVector throttle_;

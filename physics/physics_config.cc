@@ -312,6 +312,15 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
     }
   }
 
+  if (params.Has("uncertainty")) {
+    YamlMap uncertainty = params.Map("uncertainty");
+    config.uncertainty = ReadUncertainty(uncertainty);
+    if (config.uncertainty.wind_W_mps.active() && !config.simulation.air.enabled) {
+      params.Fail("uncertainty",
+                  "wind_W_mps needs the air modelled: add an `air:` block (with its mean wind)");
+    }
+  }
+
   if (params.Has("latches")) {
     const YAML::Node latches = params.Raw("latches");
     if (!latches.IsSequence()) {

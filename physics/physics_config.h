@@ -8,6 +8,7 @@
 
 #include "bridge/config.h"
 #include "physics/simulation.h"
+#include "physics/uncertainty.h"
 
 namespace iapsim::physics {
 
@@ -16,12 +17,15 @@ struct PhysicsConfig {
   int substeps = 1;               // physics steps per publish step (the scenario's clock step)
   bool publish_contacts = true;   // /contacts: every contact point, every publish step
   std::vector<std::string> urdf;  // per vehicle: the URDF it was built from ("" when generated)
+  // the true vehicles and wind are drawn from it with the run's seed (DrawTrueModel) before the simulation
+  // is built
+  UncertaintyConfig uncertainty;
 };
 
-/// Reads `params` (world, vehicles, latches, substeps, publish_contacts). Relative file names resolve
-/// against the scenario file's folder, then the working folder; the resolved values record absolute paths
-/// so a run restarts from its scenario.resolved.yaml. Throws bridge::ConfigError naming the file, key and
-/// line.
+/// Reads `params` (world, air, vehicles, actuation, uncertainty, latches, substeps, publish_contacts).
+/// Relative file names resolve against the scenario file's folder, then the working folder; the resolved
+/// values record absolute paths so a run restarts from its scenario.resolved.yaml. Throws bridge::ConfigError
+/// naming the file, key and line.
 PhysicsConfig ReadPhysicsConfig(bridge::YamlMap& params, const std::string& scenario_file,
                                 double publish_step_s);
 

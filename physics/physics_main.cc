@@ -86,6 +86,7 @@ class PhysicsNode : public bridge::Process {
   PhysicsNode(const bridge::ProcessContext& context, bridge::YamlMap& params)
       : config_(ReadPhysicsConfig(params, context.scenario.file, context.scenario.clock.step_s)) {
     config_.simulation.seed = context.seed;
+    true_model_ = DrawTrueModel(config_.uncertainty, context.seed, &config_.simulation);
     try {
       sim_ = std::make_unique<Simulation>(config_.simulation);
     } catch (const std::invalid_argument& e) {
@@ -112,6 +113,10 @@ class PhysicsNode : public bridge::Process {
 
   void Setup(bridge::Bus& bus) override {
     bus_ = &bus;
+    if (!true_model_.empty()) {  // not in the constructor: --check prints the resolved params on stdout
+      spdlog::info("model mismatch: {} parameters drawn (metrics.json: processes.physics.process.true_model)",
+                   true_model_.size());
+    }
     for (int v = 0; v < sim_->vehicle_count(); ++v) {
       const std::string& name = sim_->vehicle(v).name;
       bus.Subscribe<iapsim_msgs::IapCommand>(
@@ -170,6 +175,9 @@ class PhysicsNode : public bridge::Process {
       entry["commands_refused"] = latches_[l].refused;
     }
     (*report)["latch_commands_unknown"] = unknown_latch_commands_;
+    for (const DrawnParameter& parameter : true_model_) {
+      (*report)["true_model"][parameter.name] = {{"nominal", parameter.nominal}, {"drawn", parameter.drawn}};
+    }
   }
 
  private:
@@ -187,6 +195,7 @@ class PhysicsNode : public bridge::Process {
   // a power module's rate (PX4 publishes battery_status at about 10 Hz)
   static constexpr double kBatteryRate_hz = 10.0;
   uint64_t battery_every_ = 1;
+  std::vector<DrawnParameter> true_model_;  // where the flight's vehicles and wind differ from the files'
 
   void OnCommand(int v, const iapsim_msgs::IapCommand& command) {
     VehicleBus& vehicle = vehicles_[v];

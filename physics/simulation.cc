@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "physics/random.h"
 #include "sensors/imu.h"
 
 namespace iapsim::physics {
@@ -27,14 +28,20 @@ Simulation::Simulation(const SimulationConfig& config)
     vehicle_of_body_.resize(world_.body_count(), static_cast<int>(vehicles_.size()));
 
     if (config.air.turbulence) {
-      sim->turbulence = std::make_unique<DrydenTurbulence>(config.seed + 0x9E3779B97F4A7C15ULL *
-                                                                             (vehicles_.size() * 64 + 63));
+      sim->turbulence =
+          std::make_unique<DrydenTurbulence>(StreamSeed(config.seed, vehicles_.size() * 64 + 63));
     }
 
     const model::Vehicle& vehicle = spec.vehicle;
+    const model::Vehicle& known = spec.flight_controller_model ? *spec.flight_controller_model : vehicle;
+    if (known.sub_aircraft.size() != vehicle.sub_aircraft.size()) {
+      throw std::invalid_argument("vehicle '" + spec.name +
+                                  "': its flight controllers' model has another number of sub-aircraft");
+    }
     const Eigen::VectorXd hover_thrusts_N = vehicle.LevelHoverThrusts_N(config.world.gravity_mps2);
     for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) {
       const model::SubAircraft& sub = vehicle.sub_aircraft[i];
+      const model::SubAircraft& known_sub = known.sub_aircraft[i];
       const int body = world_.FindBody(spec.name + "/" + sub.name);
       if (body < 0) {
         throw std::invalid_argument("vehicle '" + spec.name + "': its description has no link '" + sub.name +
@@ -44,16 +51,20 @@ Simulation::Simulation(const SimulationConfig& config)
       SubAircraftSim s;
       try {
         s.rotors = std::make_unique<Rotors>(sub.rotors, sub.mass.com_B_m);
+        if (spec.flight_controller_model) {
+          s.known_rotors = std::make_unique<Rotors>(known_sub.rotors, known_sub.mass.com_B_m);
+        }
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument("vehicle '" + spec.name + "', " + sub.name + ": " + e.what());
       }
-      s.controller =
-          std::make_unique<FlightController>(sub.flight_controller, sub.mass.inertia_B_kgm2, *s.rotors);
+      s.controller = std::make_unique<FlightController>(sub.flight_controller, known_sub.mass.inertia_B_kgm2,
+                                                        s.controller_rotors());
       if (config.actuation.enabled) {
         try {
           s.drive = std::make_unique<ElectricDrive>(sub.rotors, sub.battery, config.actuation.state_of_charge,
                                                     config.actuation.battery_sag,
                                                     sub.flight_controller.battery_scale);
+          if (spec.flight_controller_model) s.drive->CalibrateOn(known_sub.rotors);
         } catch (const std::invalid_argument& e) {
           throw std::invalid_argument("vehicle '" + spec.name + "', " + sub.name +
                                       ": the actuation model: " + e.what());
@@ -68,8 +79,8 @@ Simulation::Simulation(const SimulationConfig& config)
         imu.gravity_mps2 = config.world.gravity_mps2;
         imu.initial_gyroscope_bias_sigma_radps = noise.gyroscope_bias_sigma_radps;
         imu.initial_accelerometer_bias_sigma_mps2 = noise.accelerometer_bias_sigma_mps2;
-        s.imu = std::make_unique<sensors::ImuModel>(
-            imu, config.seed + 0x9E3779B97F4A7C15ULL * (vehicles_.size() * 64 + i + 33));
+        s.imu =
+            std::make_unique<sensors::ImuModel>(imu, StreamSeed(config.seed, vehicles_.size() * 64 + i + 33));
         try {
           s.gyro = std::make_unique<GyroFilter>(sub.flight_controller, config.step_s);
         } catch (const std::invalid_argument& e) {
@@ -85,9 +96,9 @@ Simulation::Simulation(const SimulationConfig& config)
         s.setpoint.thrust_N = hover_thrusts_N[i];
       }
       s.setpoint.q_WS = world_.body(body).q_WB;  // hold the initial attitude until commanded
-      try {  // one jitter stream per link, decorrelated (SplitMix64's increment, as the sensors seed theirs)
+      try {                                      // one jitter stream per link
         s.link = bridge::LinkDelay(spec.command_link.delay_s, spec.command_link.jitter_s, config.step_s,
-                                   config.seed + 0x9E3779B97F4A7C15ULL * (vehicles_.size() * 64 + i + 1));
+                                   StreamSeed(config.seed, vehicles_.size() * 64 + i + 1));
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument("vehicle '" + spec.name + "': the command link: " + e.what());
       }
@@ -341,7 +352,7 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
       out.battery_current_A = sim.drive->current_A();
       out.state_of_charge = sim.drive->battery().state_of_charge();
     } else {
-      sim.rotors->SpeedsForThrusts(thrusts, &speeds);
+      sim.controller_rotors().SpeedsForThrusts(thrusts, &speeds);
       sim.rotors->Step(speeds, dt);
     }
     out.rotor_speeds_rad_s = sim.rotors->speeds_rad_s();

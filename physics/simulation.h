@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -54,6 +55,10 @@ struct VehicleSpec {
   std::string name;
   model::Vehicle vehicle;                   // rotors and flight controllers
   model::MultibodyDescription description;  // the rigid bodies (from the vehicle's URDF)
+  // the vehicle as its flight controllers know it, where the physics flies another (a model mismatch drawn
+  // by physics/uncertainty.h): their inertia feed-forward, mixer, thrust-to-speed inversion and thrust curve
+  // use it. Unset: `vehicle`.
+  std::optional<model::Vehicle> flight_controller_model;
   Eigen::Vector3d p_WP_m = Eigen::Vector3d::Zero();
   double yaw_rad = 0.0;
   InitialRotors initial_rotors = InitialRotors::kHover;
@@ -218,6 +223,10 @@ class Simulation {
  private:
   struct SubAircraftSim {
     std::unique_ptr<Rotors> rotors;
+    // the rotors as the flight controller knows them, where they differ
+    // (VehicleSpec::flight_controller_model)
+    std::unique_ptr<Rotors> known_rotors;
+    const Rotors& controller_rotors() const { return known_rotors ? *known_rotors : *rotors; }
     std::unique_ptr<FlightController> controller;
     std::unique_ptr<ElectricDrive> drive;  // when the actuation is modelled
     std::unique_ptr<sensors::ImuModel> imu;  // when the flight controller runs on its own gyroscope

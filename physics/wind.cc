@@ -5,6 +5,8 @@
 #include <cmath>
 #include <unsupported/Eigen/MatrixFunctions>
 
+#include "physics/random.h"
+
 namespace iapsim::physics {
 namespace {
 
@@ -50,13 +52,7 @@ double DrydenSpectrumW(const DrydenScales& s, double airspeed_mps, double omega_
 
 DrydenTurbulence::DrydenTurbulence(uint64_t seed) : random_(seed) {}
 
-// Box-Muller on the engine's raw bits: std::normal_distribution differs between standard libraries, and a
-// seeded run must repeat anywhere
-double DrydenTurbulence::Normal() {
-  const double u1 = (static_cast<double>(random_() >> 11) + 1.0) * 0x1.0p-53;  // (0, 1]
-  const double u2 = static_cast<double>(random_() >> 11) * 0x1.0p-53;          // [0, 1)
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
-}
+double DrydenTurbulence::Normal() { return StandardNormal(random_); }
 
 // Order 1: x' = −x/T + n. Order 2: x1' = x2, x2' = −x1/T² − 2 x2/T + n (the denominator (1 + T s)²). The
 // state is kept divided by its stationary standard deviation (order 1: sqrt(qT/2); order 2: sqrt(qT³/4) and
