@@ -130,6 +130,42 @@ set -e
 [ $code -eq 2 ] || fail "regress with a bad suite exited $code: $(cat "$work/regress.out")"
 grep -q "suite.yaml:3" "$work/regress.out" || fail "regress error names no line: $(cat "$work/regress.out")"
 
+# Monte Carlo: seeded draws of a model mismatch, their percentiles and band plot, a bound on a percentile
+mkdir -p "$work/mc"
+cat > "$work/mc/suite.yaml" <<EOF
+monte_carlo:
+  set:
+    duration_s: 3
+    processes.physics.params.uncertainty: {mass: {normal: 0.05}}
+flights:
+  spiral:
+    scenario: $src/configs/regression/three_star_spiral.yaml
+    max: {position_max_m: [0.0, 0.0, 0.0]}   # the ideal bounds: not checked in Monte Carlo mode
+    monte_carlo: {max: {position_max_m: [1.0, 1.0, 0.001]}}
+EOF
+set +e
+"$iapsim" regress "$work/mc" --monte-carlo 3 --out "$work/mc/out" > "$work/mc.out" 2>&1
+code=$?
+set -e
+[ $code -eq 1 ] || fail "Monte Carlo regress with a failing bound exited $code: $(cat "$work/mc.out")"
+grep -q "position_max_m.z p95 .* REGRESSION" "$work/mc.out" || fail "no failed p95 check: $(cat "$work/mc.out")"
+grep -q "position_max_m.x p95 .* ok" "$work/mc.out" || fail "no passed p95 check: $(cat "$work/mc.out")"
+[ -s "$work/mc/out/spiral/monte_carlo_error.png" ] || fail "no band plot: $(cat "$work/mc.out")"
+[ -s "$work/mc/out/spiral/draw-2/tracking.csv" ] || fail "a draw lost its tracking.csv"
+[ ! -e "$work/mc/out/spiral/draw-2/run.bag" ] || fail "a draw kept its bag without --keep-bags"
+/usr/bin/python3 -c "
+import json, sys
+out = sys.argv[1]
+stats = json.load(open(out + '/spiral/metrics.json'))['tracking']['position_max_m']['z']
+draws = [json.load(open(f'{out}/spiral/draw-{k}/metrics.json')) for k in (1, 2, 3)]
+z = sorted(d['tracking']['position_max_m']['z'] for d in draws)
+assert stats['draws'] == 3 and stats['min'] == z[0] and stats['max'] == z[2], (stats, z)
+assert abs(stats['p50'] - z[1]) < 1e-12 and z[1] < stats['p95'] < z[2], (stats, z)
+assert len(set(z)) == 3, z  # each seed draws another vehicle
+masses = {d['processes']['physics']['process']['true_model']['iap/platform/mass_kg']['drawn'] for d in draws}
+assert len(masses) == 3, masses
+" "$work/mc/out" || fail "Monte Carlo statistics"
+
 # a rendered flight: the scenario's videos and one more asked for with --video, each with its sheet of frames
 "$iapsim" run "$src/configs/scenarios/three_star_stereo.yaml" --duration 0.5 --out "$work/stereo" \
   --video iap/sub2/stereo/right > "$work/stereo.out" 2>&1 || fail "stereo run: $(cat "$work/stereo.out")"

@@ -33,11 +33,17 @@ int Evaluate(const std::string& run_dir);
 
 struct RegressArgs {
   std::string suite_dir = "configs/regression";
-  std::string out_dir;              // default runs/regress-<UTC time>
-  std::vector<std::string> only;    // flight names; empty: all
+  std::string out_dir;                 // default runs/regress-<UTC time>
+  std::vector<std::string> only;       // flight names; empty: all
+  std::vector<std::string> overrides;  // --set KEY=VALUE, on every flight
+  int monte_carlo = 0;                 // draws per flight; 0: each flight once
+  bool keep_bags = false;              // Monte Carlo: keep every draw's recording
 };
 /// Runs every regression flight of DIR/suite.yaml in lockstep, evaluates it, compares the metrics with the
-/// suite's thresholds and prints a table. Returns 1 on any regression, 2 on a bad suite.
+/// suite's thresholds and prints a table. With `monte_carlo` N, flies each N times with seeds 1..N and the
+/// suite's `monte_carlo.set` keys, and checks the 95th/5th percentiles of the metrics and the task success
+/// rate against the flights' `monte_carlo` bounds. Returns 1 on any regression, 2 on a bad suite, 130
+/// interrupted.
 int Regress(const RegressArgs& args);
 
 int Info(const std::string& bag);

@@ -49,6 +49,15 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingDirectory);
   regress_cmd->add_option("--out", regress.out_dir, "where the runs go (default runs/regress-<UTC time>)");
   regress_cmd->add_option("--only", regress.only, "run only these flights (repeatable)");
+  regress_cmd->add_option("--set", regress.overrides,
+                          "override a scenario key of every flight: KEY=VALUE (repeatable)");
+  regress_cmd
+      ->add_option(
+          "--monte-carlo", regress.monte_carlo,
+          "fly each flight N times (seeds 1..N) with the suite's monte_carlo keys; check percentiles")
+      ->check(CLI::Range(1, 100000));
+  regress_cmd->add_flag("--keep-bags", regress.keep_bags,
+                        "Monte Carlo: keep each draw's run.bag (by default deleted once evaluated)");
 
   std::string info_bag;
   auto* info_cmd = app.add_subcommand("info", "list a bag's topics, types, counts and rates");

@@ -1,5 +1,8 @@
 // `iapsim regress`: the regression flights of a suite (configs/regression/suite.yaml), each run in lockstep
-// and evaluated like `iapsim run` does, its metrics compared with the suite's upper bounds.
+// and evaluated like `iapsim run` does, its metrics compared with the suite's upper bounds. With
+// `--monte-carlo N` each flight flies N seeded draws of the suite's `monte_carlo` settings (a model
+// mismatch), and its metrics' percentiles and task success rate are compared with the flight's
+// `monte_carlo` bounds.
 
 #include <algorithm>
 #include <cmath>
@@ -7,12 +10,16 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <limits>
+#include <map>
+#include <tuple>
 
 #include "bridge/config.h"
 #include "bridge/launcher.h"
 #include "bridge/scenario.h"
 #include "tools/commands.h"
+#include "tools/plot_script.h"
 #include "tools/run_evaluation.h"
 
 namespace iapsim::tools {
@@ -28,12 +35,28 @@ struct Bound {
   std::string key;  // empty: the section is the number
   double max = kUnchecked;
   double min = kUnchecked;
+
+  std::string Metric() const {
+    return (analysis == "contact" ? "contact." : "") + section + (key.empty() ? "" : "." + key);
+  }
+  nlohmann::json::json_pointer Pointer() const {
+    return nlohmann::json::json_pointer("/" + analysis + "/" + section + (key.empty() ? "" : "/" + key));
+  }
 };
 
 struct Flight {
   std::string name;
   std::string scenario;
-  std::vector<Bound> bounds;
+  std::vector<Bound> bounds;  // one run
+  // --monte-carlo: bounds on the draws' 95th (max) and 5th (min) percentiles, and the least fraction of
+  // draws that meet the flight's own contact bounds (that did the task)
+  std::vector<Bound> monte_carlo_bounds;
+  double task_success_min = 0.0;
+};
+
+struct Suite {
+  std::vector<Flight> flights;
+  std::vector<std::string> monte_carlo_overrides;  // "key.path=value", as --set
 };
 
 // A per-axis bound: three numbers, or null for an axis left unchecked (the free roll of a 5-DOF flight).
@@ -54,12 +77,62 @@ void ReadAxisBounds(bridge::YamlMap& map, const std::string& section, const std:
   }
 }
 
-std::vector<Flight> ReadSuite(const std::string& suite_dir) {
+// The bounds of a flight (or of its monte_carlo block): `max` on the tracking metrics, `contact_max` and
+// `contact_min` on the contact metrics (contact_evaluation.h) by dotted path, e.g. wrench_error_relative.fy.
+std::vector<Bound> ReadBounds(bridge::YamlMap& map) {
+  std::vector<Bound> bounds;
+  bridge::YamlMap max = map.Map("max");
+  ReadAxisBounds(max, "position_rmse_m", {"x", "y", "z"}, &bounds);
+  ReadAxisBounds(max, "position_max_m", {"x", "y", "z"}, &bounds);
+  ReadAxisBounds(max, "attitude_rmse_deg", {"roll", "pitch", "yaw"}, &bounds);
+  ReadAxisBounds(max, "attitude_max_deg", {"roll", "pitch", "yaw"}, &bounds);
+  for (const char* count : {"saturated_updates", "mixer_saturated_steps"}) {
+    if (!max.Has(count)) continue;
+    Bound bound{"tracking", count, "", 0.0, kUnchecked};
+    double value = 0.0;
+    max.Required(count, &value);
+    if (!(value >= 0.0)) max.Fail(count, "must be a non-negative count");
+    bound.max = value;
+    bounds.push_back(bound);
+  }
+  max.Finish();
+  for (const char* kind : {"contact_max", "contact_min"}) {
+    bridge::YamlMap limits = map.Map(kind);
+    for (const std::string& metric : limits.Keys()) {
+      const auto dot = metric.find('.');
+      Bound bound{"contact", metric.substr(0, dot), dot == std::string::npos ? "" : metric.substr(dot + 1),
+                  kUnchecked, kUnchecked};
+      double value = 0.0;
+      limits.Required(metric, &value);
+      if (!std::isfinite(value)) limits.Fail(metric, "expected a number");
+      (std::string(kind) == "contact_max" ? bound.max : bound.min) = value;
+      bounds.push_back(bound);
+    }
+    limits.Finish();
+  }
+  return bounds;
+}
+
+// `set: {dotted.key: value, ...}` as --set assignments, each value written as one line of flow YAML.
+std::vector<std::string> ReadOverrides(bridge::YamlMap& map) {
+  std::vector<std::string> overrides;
+  if (!map.Has("set")) return overrides;
+  const YAML::Node set = map.Raw("set");
+  if (!set.IsMap()) map.Fail("set", "expected a map of scenario keys (dotted, as --set) to values");
+  for (const auto& entry : set) {
+    YAML::Emitter value;
+    value << YAML::Flow << entry.second;
+    overrides.push_back(entry.first.Scalar() + "=" + value.c_str());
+  }
+  return overrides;
+}
+
+Suite ReadSuite(const std::string& suite_dir) {
   const std::string path = suite_dir + "/suite.yaml";
   const YAML::Node root = bridge::LoadYamlFile(path);
   bridge::YamlMap top(root, path);
+  Suite suite;
   bridge::YamlMap flights = top.Map("flights");
-  std::vector<Flight> out;
   for (const std::string& name : flights.Keys()) {
     Flight flight;
     flight.name = name;
@@ -67,53 +140,266 @@ std::vector<Flight> ReadSuite(const std::string& suite_dir) {
     map.Required("scenario", &flight.scenario);
     flight.scenario = (fs::path(suite_dir) / flight.scenario).string();
     if (!fs::exists(flight.scenario)) map.Fail("scenario", "no such file: " + flight.scenario);
-    bridge::YamlMap max = map.Map("max");
-    ReadAxisBounds(max, "position_rmse_m", {"x", "y", "z"}, &flight.bounds);
-    ReadAxisBounds(max, "position_max_m", {"x", "y", "z"}, &flight.bounds);
-    ReadAxisBounds(max, "attitude_rmse_deg", {"roll", "pitch", "yaw"}, &flight.bounds);
-    ReadAxisBounds(max, "attitude_max_deg", {"roll", "pitch", "yaw"}, &flight.bounds);
-    for (const char* count : {"saturated_updates", "mixer_saturated_steps"}) {
-      if (!max.Has(count)) continue;
-      Bound bound{"tracking", count, "", 0.0, kUnchecked};
-      max.OptionalInRange(count, &bound.max, 0.0, 1e12);
-      flight.bounds.push_back(bound);
+    flight.bounds = ReadBounds(map);
+    bridge::YamlMap monte_carlo = map.Map("monte_carlo");
+    flight.monte_carlo_bounds = ReadBounds(monte_carlo);
+    monte_carlo.Optional("task_success_min", &flight.task_success_min);
+    if (!(flight.task_success_min >= 0.0 && flight.task_success_min <= 1.0)) {
+      monte_carlo.Fail("task_success_min", "expected a fraction of the draws, in [0, 1]");
     }
-    max.Finish();
-    // contact metrics (contact_evaluation.h) by dotted path, e.g. wrench_error_relative.fy: 0.1
-    for (const char* kind : {"contact_max", "contact_min"}) {
-      bridge::YamlMap limits = map.Map(kind);
-      for (const std::string& metric : limits.Keys()) {
-        const auto dot = metric.find('.');
-        Bound bound{"contact", metric.substr(0, dot), dot == std::string::npos ? "" : metric.substr(dot + 1),
-                    kUnchecked, kUnchecked};
-        double value = 0.0;
-        limits.Required(metric, &value);
-        (std::string(kind) == "contact_max" ? bound.max : bound.min) = value;
-        flight.bounds.push_back(bound);
-      }
-      limits.Finish();
-    }
+    monte_carlo.Finish();
     map.Finish();
-    out.push_back(flight);
+    suite.flights.push_back(flight);
   }
   flights.Finish();
+  bridge::YamlMap monte_carlo = top.Map("monte_carlo");
+  suite.monte_carlo_overrides = ReadOverrides(monte_carlo);
+  monte_carlo.Finish();
   top.Finish();
-  if (out.empty()) top.Fail("flights", "the suite has no flights");
+  if (suite.flights.empty()) top.Fail("flights", "the suite has no flights");
+  return suite;
+}
+
+// One flight run and evaluated; `error` says why not.
+struct FlightRun {
+  std::string run_dir;
+  std::string error;
+  int exit_code = 0;
+  nlohmann::json metrics;  // {tracking: ..., contact: ...}
+};
+
+FlightRun Fly(const Flight& flight, const std::vector<std::string>& overrides, const fs::path& run_dir,
+              bool draw) {
+  FlightRun run;
+  bridge::LaunchOptions options;
+  options.scenario_path = flight.scenario;
+  options.overrides = overrides;
+  options.out_dir = run_dir.string();
+  options.bin_dir = bridge::ExecutableDir();
+  const bridge::LaunchResult result = bridge::Launch(options);
+  run.run_dir = result.run_dir.empty() ? options.out_dir : result.run_dir;
+  run.exit_code = result.exit_code;
+  if (result.exit_code != 0) {
+    run.error = result.message;
+    return run;
+  }
+  try {
+    RunEvaluation evaluation = ReadRunEvaluation(bridge::LoadScenario(flight.scenario, overrides));
+    if (evaluation.empty()) {
+      run.error = "the scenario has no evaluation section";
+      return run;
+    }
+    if (draw) {  // a draw's plots and tables are the band plot's and the summary's
+      if (evaluation.tracking) evaluation.tracking->plots = false;
+      if (evaluation.contact) evaluation.contact->plots = false;
+    }
+    run.metrics = EvaluateRun(result.run_dir, evaluation, /*print=*/!draw);
+  } catch (const std::exception& e) {
+    run.error = e.what();
+  }
+  return run;
+}
+
+// A metric's value, NaN when the evaluation did not produce it or it is null (an axis never settled).
+double Value(const nlohmann::json& metrics, const Bound& bound) {
+  const auto pointer = bound.Pointer();
+  if (!metrics.contains(pointer) || !metrics[pointer].is_number()) return kUnchecked;
+  return metrics[pointer].get<double>();
+}
+
+// Whether a value meets its bound (a missing value does not).
+bool Holds(double value, const Bound& bound) {
+  return !std::isnan(value) && !(value > bound.max) && !(value < bound.min);
+}
+
+// Prints and records one check; returns whether it holds.
+bool Check(const std::string& flight, const std::string& metric, double value, const Bound& bound,
+           nlohmann::json* checks) {
+  const bool ok = Holds(value, bound);
+  const double limit = std::isnan(bound.max) ? bound.min : bound.max;
+  std::printf("%-22s %-40s %12.4f %4s %9.4f  %s\n", flight.c_str(), metric.c_str(), value,
+              std::isnan(bound.max) ? "min" : "max", limit, ok ? "ok" : "REGRESSION");
+  (*checks)[metric] = {{"value", value}, {std::isnan(bound.max) ? "min" : "max", limit}, {"ok", ok}};
+  return ok;
+}
+
+// Percentile p (0..100) of sorted values, interpolated linearly between order statistics (numpy's default,
+// Hyndman and Fan's type 7), as the band plot computes it.
+double Percentile(const std::vector<double>& sorted, double p) {
+  const double h = (sorted.size() - 1) * p / 100.0;
+  const size_t below = static_cast<size_t>(std::floor(h));
+  const size_t above = std::min(below + 1, sorted.size() - 1);
+  return sorted[below] + (h - below) * (sorted[above] - sorted[below]);
+}
+
+// Every number of the draws' metrics as {p5, p50, p95, mean, min, max} over the draws that have it.
+nlohmann::json Statistics(const std::vector<nlohmann::json>& draws) {
+  std::map<std::string, std::vector<double>> values;  // by JSON pointer
+  for (const nlohmann::json& metrics : draws) {
+    const nlohmann::json flat = metrics.flatten();  // items() of a temporary would outlive it
+    for (const auto& [pointer, value] : flat.items()) {
+      if (value.is_number()) values[pointer].push_back(value.get<double>());
+    }
+  }
+  nlohmann::json flat = nlohmann::json::object();
+  for (auto& [pointer, samples] : values) {
+    std::sort(samples.begin(), samples.end());
+    double sum = 0.0;
+    for (double v : samples) sum += v;
+    flat[pointer + "/p5"] = Percentile(samples, 5.0);
+    flat[pointer + "/p50"] = Percentile(samples, 50.0);
+    flat[pointer + "/p95"] = Percentile(samples, 95.0);
+    flat[pointer + "/mean"] = sum / samples.size();
+    flat[pointer + "/min"] = samples.front();
+    flat[pointer + "/max"] = samples.back();
+    flat[pointer + "/draws"] = samples.size();
+  }
+  return flat.unflatten();
+}
+
+std::vector<Flight> Selected(const std::vector<Flight>& flights, const std::vector<std::string>& only) {
+  std::vector<Flight> out;
+  for (const Flight& flight : flights) {
+    if (only.empty() || std::find(only.begin(), only.end(), flight.name) != only.end()) out.push_back(flight);
+  }
   return out;
+}
+
+// Each flight once, its metrics against its bounds.
+int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::string>& overrides,
+                const fs::path& out_dir, nlohmann::json* report, bool* interrupted) {
+  int failures = 0;
+  std::printf("%-22s %-40s %12s %14s  %s\n", "flight", "metric", "value", "bound", "result");
+  for (const Flight& flight : flights) {
+    const FlightRun run = Fly(flight, overrides, out_dir / flight.name, false);
+    nlohmann::json& entry = (*report)[flight.name];
+    entry["run_dir"] = run.run_dir;
+    if (!run.error.empty()) {
+      std::printf("%-22s %-40s  FAILED: %s\n", flight.name.c_str(), "run", run.error.c_str());
+      entry["error"] = run.error;
+      ++failures;
+      if (run.exit_code == 130) return *interrupted = true, failures;
+      continue;
+    }
+    for (const auto& [analysis, section] : run.metrics.items()) entry[analysis] = section;
+    for (const Bound& bound : flight.bounds) {
+      if (!Check(flight.name, bound.Metric(), Value(run.metrics, bound), bound, &entry["checks"])) ++failures;
+    }
+    std::printf("%-22s plots and metrics in %s\n", flight.name.c_str(), run.run_dir.c_str());
+  }
+  return failures;
+}
+
+// Each flight `draws` times with seeds 1..draws (a draw's bag deleted once evaluated, unless kept; a failed
+// draw keeps it); the monte_carlo bounds hold for the 95th percentile of a
+// metric (an upper bound) or its 5th (a lower bound), every draw must fly, and at least task_success_min of
+// the draws must meet the flight's own contact bounds.
+int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std::string>& overrides,
+                      int draws, bool keep_bags, const fs::path& out_dir, nlohmann::json* report,
+                      bool* interrupted) {
+  int failures = 0;
+  for (const Flight& flight : flights) {
+    nlohmann::json& entry = (*report)[flight.name];
+    std::vector<nlohmann::json> metrics;
+    std::vector<std::string> csvs;
+    std::vector<Bound> task;  // the flight's contact bounds: what doing its task means
+    std::copy_if(flight.bounds.begin(), flight.bounds.end(), std::back_inserter(task),
+                 [](const Bound& bound) { return bound.analysis == "contact"; });
+    int task_successes = 0;
+    for (int seed = 1; seed <= draws; ++seed) {
+      std::vector<std::string> draw_overrides = overrides;
+      draw_overrides.push_back("seed=" + std::to_string(seed));
+      const FlightRun run =
+          Fly(flight, draw_overrides, out_dir / flight.name / ("draw-" + std::to_string(seed)), true);
+      if (!run.error.empty()) {
+        std::printf("%-22s draw %d/%d (seed %d): FAILED: %s\n", flight.name.c_str(), seed, draws, seed,
+                    run.error.c_str());
+        entry["failed_draws"].push_back({{"seed", seed}, {"error", run.error}, {"run_dir", run.run_dir}});
+        ++failures;
+        if (run.exit_code == 130) return *interrupted = true, failures;
+        if (run.exit_code == 2) break;  // a bad configuration: every draw would fail the same way
+        continue;
+      }
+      if (run.metrics.contains("tracking")) {  // a line a draw: its largest errors per axis
+        const nlohmann::json& tracking = run.metrics["tracking"];
+        std::string line;
+        using Axes = std::vector<std::string>;
+        for (const auto& [section, axes, unit] :
+             {std::tuple{"position_max_m", Axes{"x", "y", "z"}, " m"},
+              {"attitude_max_deg", Axes{"roll", "pitch", "yaw"}, " deg"}}) {
+          line += std::string(" ") + (axes[0] == "x" ? "x y z" : "roll pitch yaw") + " [";
+          for (const std::string& axis : axes) {
+            const nlohmann::json value = tracking[section].value(axis, nlohmann::json());
+            char number[32];
+            std::snprintf(number, sizeof number, value.is_number() ? " %.3g" : " -",
+                          value.is_number() ? value.get<double>() : 0.0);
+            line += number;
+          }
+          line += std::string(" ]") + unit;
+        }
+        std::printf("%-22s draw %d/%d (seed %d): max |error|%s\n", flight.name.c_str(), seed, draws, seed,
+                    line.c_str());
+        csvs.push_back(tracking["csv"].get<std::string>());
+      } else {
+        std::printf("%-22s draw %d/%d (seed %d): flown\n", flight.name.c_str(), seed, draws, seed);
+      }
+      metrics.push_back(run.metrics);
+      // a recorded flight is hundreds of MB (the spiral's 318): a draw keeps its metrics, CSVs and logs
+      if (!keep_bags) fs::remove(fs::path(run.run_dir) / "run.bag");
+      if (std::all_of(task.begin(), task.end(),
+                      [&](const Bound& bound) { return Holds(Value(run.metrics, bound), bound); })) {
+        ++task_successes;
+      }
+    }
+    entry["draws"] = draws;
+    for (int seed = 1; seed <= draws; ++seed) entry["seeds"].push_back(seed);
+    if (metrics.empty()) continue;
+    const nlohmann::json statistics = Statistics(metrics);
+    for (const auto& [analysis, section] : statistics.items()) entry[analysis] = section;
+    if (!task.empty()) {  // a draw that failed to fly did not do its task
+      const double rate = static_cast<double>(task_successes) / draws;
+      entry["task_success_rate"] = rate;
+      Bound bound{"", "task_success_rate", "", kUnchecked, flight.task_success_min};
+      if (!Check(flight.name, "task_success_rate", rate, bound, &entry["checks"])) ++failures;
+    }
+    if (flight.monte_carlo_bounds.empty() && task.empty()) {
+      std::printf("%-22s no monte_carlo bounds: percentiles reported, nothing checked\n",
+                  flight.name.c_str());
+    }
+    for (const Bound& bound : flight.monte_carlo_bounds) {
+      const bool upper = !std::isnan(bound.max);
+      const std::string percentile = upper ? "p95" : "p5";
+      const auto pointer = bound.Pointer() / percentile;
+      const double value = statistics.contains(pointer) ? statistics[pointer].get<double>() : kUnchecked;
+      if (!Check(flight.name, bound.Metric() + " " + percentile, value, bound, &entry["checks"])) ++failures;
+    }
+    const fs::path flight_dir = out_dir / flight.name;
+    std::ofstream(flight_dir / "metrics.json") << entry.dump(2) << "\n";
+    if (!csvs.empty()) {
+      const fs::path plot = flight_dir / "monte_carlo_error.png";
+      std::vector<std::string> args{plot.string(), flight.name};
+      args.insert(args.end(), csvs.begin(), csvs.end());
+      if (RunPlotScript(IAPSIM_PLOT_MONTE_CARLO, args)) entry["plot"] = plot.string();
+    }
+    std::printf("%-22s percentiles over %zu draws in %s/metrics.json\n", flight.name.c_str(), metrics.size(),
+                flight_dir.c_str());
+  }
+  return failures;
 }
 
 }  // namespace
 
 int Regress(const RegressArgs& args) {
-  std::vector<Flight> flights;
+  Suite suite;
   try {
-    flights = ReadSuite(args.suite_dir);
+    suite = ReadSuite(args.suite_dir);
   } catch (const bridge::ConfigError& e) {
     std::cerr << "iapsim: invalid suite: " << e.what() << std::endl;
     return 2;
   }
   for (const auto& only : args.only) {
-    if (std::none_of(flights.begin(), flights.end(), [&](const Flight& f) { return f.name == only; })) {
+    if (std::none_of(suite.flights.begin(), suite.flights.end(),
+                     [&](const Flight& f) { return f.name == only; })) {
       std::cerr << "iapsim: no flight '" << only << "' in " << args.suite_dir << "/suite.yaml" << std::endl;
       return 2;
     }
@@ -121,59 +407,27 @@ int Regress(const RegressArgs& args) {
   const fs::path out_dir =
       args.out_dir.empty() ? fs::path("runs") / ("regress-" + bridge::UtcStamp()) : fs::path(args.out_dir);
   fs::create_directories(out_dir);
+  const std::vector<Flight> flights = Selected(suite.flights, args.only);
+
+  // the suite's Monte Carlo settings first, so the command line's --set wins
+  std::vector<std::string> overrides{"mode=lockstep"};
+  if (args.monte_carlo > 0) {
+    overrides.insert(overrides.end(), suite.monte_carlo_overrides.begin(), suite.monte_carlo_overrides.end());
+  }
+  overrides.insert(overrides.end(), args.overrides.begin(), args.overrides.end());
 
   nlohmann::json report;
-  int failures = 0;
-  std::printf("%-22s %-34s %12s %14s  %s\n", "flight", "metric", "value", "bound", "result");
-  for (const Flight& flight : flights) {
-    if (!args.only.empty() && std::find(args.only.begin(), args.only.end(), flight.name) == args.only.end())
-      continue;
-    bridge::LaunchOptions options;
-    options.scenario_path = flight.scenario;
-    options.overrides = {"mode=lockstep"};
-    options.out_dir = (out_dir / flight.name).string();
-    options.bin_dir = bridge::ExecutableDir();
-    const bridge::LaunchResult result = bridge::Launch(options);
-    nlohmann::json& entry = report[flight.name];
-    entry["run_dir"] = options.out_dir;
-    if (result.exit_code != 0) {
-      std::printf("%-22s %-28s %12s %12s  FAILED: %s\n", flight.name.c_str(), "run", "-", "-",
-                  result.message.c_str());
-      entry["error"] = result.message;
-      ++failures;
-      continue;
-    }
-    const RunEvaluation evaluation = ReadRunEvaluation(bridge::LoadScenario(flight.scenario));
-    if (evaluation.empty()) {
-      std::printf("%-22s %-28s  FAILED: the scenario has no evaluation section\n", flight.name.c_str(),
-                  "run");
-      ++failures;
-      continue;
-    }
-    const nlohmann::json metrics = EvaluateRun(result.run_dir, evaluation);
-    for (const auto& [analysis, section] : metrics.items()) entry[analysis] = section;
-    for (const Bound& bound : flight.bounds) {
-      const std::string metric = (bound.analysis == "contact" ? "contact." : "") + bound.section +
-                                 (bound.key.empty() ? "" : "." + bound.key);
-      const nlohmann::json* number = nullptr;
-      if (metrics.contains(bound.analysis) && metrics[bound.analysis].contains(bound.section)) {
-        const nlohmann::json& section = metrics[bound.analysis][bound.section];
-        number = bound.key.empty() ? &section : section.contains(bound.key) ? &section[bound.key] : nullptr;
-      }
-      // a metric the evaluation did not produce, or null (an axis never settled), fails its check
-      const double value = number && number->is_number() ? number->get<double>() : kUnchecked;
-      const bool ok = !std::isnan(value) && !(value > bound.max) && !(value < bound.min);
-      const double limit = std::isnan(bound.max) ? bound.min : bound.max;
-      std::printf("%-22s %-34s %12.4f %4s %9.4f  %s\n", flight.name.c_str(), metric.c_str(), value,
-                  std::isnan(bound.max) ? "min" : "max", limit, ok ? "ok" : "REGRESSION");
-      entry["checks"][metric] = {
-          {"value", value}, {std::isnan(bound.max) ? "min" : "max", limit}, {"ok", ok}};
-      if (!ok) ++failures;
-    }
-    std::printf("%-22s plots and metrics in %s\n", flight.name.c_str(), result.run_dir.c_str());
-  }
+  bool interrupted = false;
+  const int failures = args.monte_carlo > 0
+                           ? RegressMonteCarlo(flights, overrides, args.monte_carlo, args.keep_bags, out_dir,
+                                               &report, &interrupted)
+                           : RegressOnce(flights, overrides, out_dir, &report, &interrupted);
   const fs::path report_path = out_dir / "regress.json";
   std::ofstream(report_path) << report.dump(2) << "\n";
+  if (interrupted) {
+    std::printf("\ninterrupted; what ran is under %s\n", out_dir.c_str());
+    return 130;
+  }
   std::printf("\n%s: %d regression%s; runs and plots under %s\n", failures == 0 ? "PASS" : "FAIL", failures,
               failures == 1 ? "" : "s", out_dir.c_str());
   return failures == 0 ? 0 : 1;

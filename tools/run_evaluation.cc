@@ -28,7 +28,7 @@ RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario) {
   return out;
 }
 
-nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& evaluation) {
+nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& evaluation, bool print) {
   nlohmann::json out = nlohmann::json::object();
   const std::string bag_path = run_dir + "/run.bag";
   // opened once for every analysis: reading a bag's index is most of what reading a few topics costs
@@ -36,15 +36,15 @@ nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& eval
   if (evaluation.tracking || evaluation.contact) bag.emplace(bag_path);
   if (evaluation.tracking) {
     out["tracking"] = EvaluateTracking(run_dir, *bag, *evaluation.tracking);
-    PrintTracking(out["tracking"]);
+    if (print) PrintTracking(out["tracking"]);
   }
   if (evaluation.contact) {
     out["contact"] = EvaluateContact(run_dir, *bag, *evaluation.contact);
-    PrintContact(out["contact"]);
+    if (print) PrintContact(out["contact"]);
   }
   for (const std::string& camera : evaluation.videos) {
     const CameraVideo video = WriteCameraVideo(bag_path, camera, DefaultVideoPath(bag_path, camera));
-    PrintCameraVideo(video);
+    if (print) PrintCameraVideo(video);
     out["videos"][video.topic] = {
         {"video", video.video_path}, {"sheet", video.sheet_path}, {"images", video.images}};
   }

@@ -23,8 +23,9 @@ struct RunEvaluation {
 /// Reads the scenario's `evaluation` section (unknown keys are errors). Throws bridge::ConfigError.
 RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario);
 
-/// Runs each analysis on run_dir, prints its table and returns {tracking: ..., contact: ..., videos: ...}
-/// (tracking and contact are also written into run_dir/metrics.json). Throws std::runtime_error naming a file that is missing data.
-nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& evaluation);
+/// Runs each analysis on run_dir, prints its table (unless `print` is false) and returns {tracking: ...,
+/// contact: ..., videos: ...} (tracking and contact are also written into run_dir/metrics.json). Throws
+/// std::runtime_error naming a file that is missing data.
+nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& evaluation, bool print = true);
 
 }  // namespace iapsim::tools
