@@ -9,6 +9,10 @@
 //                 from (10) once contact holds and drives the contact wrench to a command (§VI-F). The
 //                 wrench comes from wrench_topic (the sensors' low-passed wrench; give this process
 //                 `after: [sensors]` in lockstep so it reads the wrench of its own step).
+//   odometry_topic  the platform's pose and twist come from this nav_msgs/Odometry (the sensors process's
+//                 odometry, or an estimator's: pose in W, twist in P) instead of the true state, which
+//                 this process then does not read (issue 19's estimation in the loop). In lockstep give
+//                 the process `after: [sensors]` and the odometry the controller's rate.
 //   sensor_link: {delay_s, jitter_s}  what this computer reads of the vehicle (state and wrench) reaches it
 //                 that long after it was measured (control/sensor_link.h); it controls with the newest that
 //                 has arrived and sends nothing before the first (the flight controllers hold their initial
@@ -17,7 +21,7 @@
 //                 the hover wrench by (17) at the platform's attitude levelled (its yaw kept), as a
 //                 collective thrust and an attitude from (18) with the sub-aircraft's initial yaw.
 //
-//   subscribes  /<vehicle>/state      iapsim_msgs/IapState
+//   subscribes  /<vehicle>/state      iapsim_msgs/IapState (or odometry_topic: nav_msgs/Odometry)
 //               reference.topic       PoseStamped or iapsim_msgs/Setpoint (track with a reference)
 //               wrench_topic          geometry_msgs/WrenchStamped, in P about its origin (interaction)
 //   publishes   /<vehicle>/cmd        iapsim_msgs/IapCommand (stamped with the newest state's time, its
@@ -32,6 +36,7 @@
 #include <iapsim_msgs/IapCommand.h>
 #include <iapsim_msgs/IapState.h>
 #include <iapsim_msgs/Setpoint.h>
+#include <nav_msgs/Odometry.h>
 
 #include <cmath>
 #include <optional>
@@ -51,12 +56,19 @@
 namespace iapsim::control {
 namespace {
 
-PlatformState PlatformStateOf(const iapsim_msgs::BodyState& body) {
+// What the computer knows of the platform at one instant: the true state or an odometry's estimate of it.
+struct Measured {
+  int64_t stamp_ns = 0;
+  uint64_t step = 0;  // the physics step it was measured in
+  PlatformState platform;
+};
+
+PlatformState PlatformStateOf(const geometry_msgs::Pose& pose_W, const geometry_msgs::Twist& twist_P) {
   PlatformState state;
-  state.p_WP_m = bridge::FromMsg(body.pose_W.position);
-  state.q_WP = bridge::FromMsg(body.pose_W.orientation);
-  state.v_WP_P_mps = bridge::FromMsg(body.twist_B.linear);
-  state.w_WP_P_radps = bridge::FromMsg(body.twist_B.angular);
+  state.p_WP_m = bridge::FromMsg(pose_W.position);
+  state.q_WP = bridge::FromMsg(pose_W.orientation).normalized();
+  state.v_WP_P_mps = bridge::FromMsg(twist_P.linear);
+  state.w_WP_P_radps = bridge::FromMsg(twist_P.angular);
   return state;
 }
 
@@ -79,12 +91,13 @@ class ControlNode : public bridge::Process {
       link.OptionalInRange("jitter_s", &jitter_s, 0.0, 10.0);
       link.Finish();
     }
+    params.Optional("odometry_topic", &odometry_topic_);
     const double step_s = context.scenario.clock.step_s;
-    const auto step_ns = static_cast<int64_t>(std::llround(step_s * 1e9));
+    step_ns_ = static_cast<int64_t>(std::llround(step_s * 1e9));
     try {  // one jitter stream per input
-      states_.emplace(bridge::LinkDelay(delay_s, jitter_s, step_s, context.seed), step_ns);
+      states_.emplace(bridge::LinkDelay(delay_s, jitter_s, step_s, context.seed), step_ns_);
       wrenches_.emplace(bridge::LinkDelay(delay_s, jitter_s, step_s, context.seed + 0x9E3779B97F4A7C15ULL),
-                        step_ns);
+                        step_ns_);
     } catch (const std::invalid_argument& e) {
       params.Fail("sensor_link", e.what());
     }
@@ -124,12 +137,26 @@ class ControlNode : public bridge::Process {
 
   void Setup(bridge::Bus& bus) override {
     bus_ = &bus;
-    bus.Subscribe<iapsim_msgs::IapState>(
-        "/" + vehicle_name_ + "/state",
-        [this](const iapsim_msgs::IapState& state, const bridge::MessageInfo&) {
-          newest_state_ns_ = bridge::ToNanoseconds(state.header.stamp);
-          states_->Push(state, *newest_state_ns_);
-        });
+    const auto measured = [this](const std_msgs::Header& header, const geometry_msgs::Pose& pose_W,
+                                 const geometry_msgs::Twist& twist_P, uint64_t step) {
+      newest_state_ns_ = bridge::ToNanoseconds(header.stamp);
+      states_->Push(Measured{*newest_state_ns_, step, PlatformStateOf(pose_W, twist_P)}, *newest_state_ns_);
+    };
+    if (odometry_topic_.empty()) {
+      bus.Subscribe<iapsim_msgs::IapState>(
+          "/" + vehicle_name_ + "/state",
+          [measured](const iapsim_msgs::IapState& state, const bridge::MessageInfo&) {
+            if (!state.bodies.empty()) {
+              measured(state.header, state.bodies[0].pose_W, state.bodies[0].twist_B, state.step);
+            }
+          });
+    } else {
+      bus.Subscribe<nav_msgs::Odometry>(
+          odometry_topic_, [this, measured](const nav_msgs::Odometry& odometry, const bridge::MessageInfo&) {
+            const auto step = static_cast<uint64_t>(bridge::ToNanoseconds(odometry.header.stamp) / step_ns_);
+            measured(odometry.header, odometry.pose.pose, odometry.twist.twist, step);
+          });
+    }
     if (!wrench_topic_.empty()) {
       bus.Subscribe<geometry_msgs::WrenchStamped>(
           wrench_topic_, [this](const geometry_msgs::WrenchStamped& m, const bridge::MessageInfo&) {
@@ -159,12 +186,12 @@ class ControlNode : public bridge::Process {
   void Step(const bridge::StepInfo&) override {
     // realtime: nothing to answer yet; with a sensor link, nothing has arrived yet. The time is that of the
     // newest state received: what every output is stamped with (in lockstep, this step's).
-    if (!newest_state_ns_ || !states_->Advance(*newest_state_ns_) || measured().bodies.empty()) return;
+    if (!newest_state_ns_ || !states_->Advance(*newest_state_ns_)) return;
     now_ = bridge::ToRosTime(*newest_state_ns_);
     if (wrenches_->Advance(*newest_state_ns_)) {
       const geometry_msgs::WrenchStamped& wrench = wrenches_->current();
       wrench_P_ << bridge::FromMsg(wrench.wrench.force), bridge::FromMsg(wrench.wrench.torque);
-      wrench_stamp_ = wrench.header.stamp;
+      wrench_stamp_ns_ = bridge::ToNanoseconds(wrench.header.stamp);
     }
     if (controller_ || wrench_controller_) {
       Track();
@@ -203,18 +230,18 @@ class ControlNode : public bridge::Process {
  private:
   void Track() {
     // the trajectory's time 0 is the first state's, whenever it arrived
-    if (!start_ns_) start_ns_ = bridge::ToNanoseconds(measured().header.stamp);
+    if (!start_ns_) start_ns_ = measured().stamp_ns;
     const double t_s = static_cast<double>(bridge::ToNanoseconds(now_) - *start_ns_) * 1e-9;
     if (!hold_) {  // before the first pose command: stay where the flight starts
       hold_.emplace();
-      hold_->p_WP_m = bridge::FromMsg(measured().bodies[0].pose_W.position);
-      hold_->q_WP = bridge::FromMsg(measured().bodies[0].pose_W.orientation).normalized();
+      hold_->p_WP_m = measured().platform.p_WP_m;
+      hold_->q_WP = measured().platform.q_WP;
     }
     const PoseReference nominal = trajectory_           ? trajectory_->Sample(t_s)
                                   : commanded_->empty() ? *hold_
                                                         : commanded_->current();
-    const PlatformState state = PlatformStateOf(measured().bodies[0]);
-    if (interaction_ != "none" && wrench_stamp_ != measured().header.stamp) ++stale_wrench_updates_;
+    const PlatformState& state = measured().platform;
+    if (interaction_ != "none" && wrench_stamp_ns_ != measured().stamp_ns) ++stale_wrench_updates_;
     PoseReference reference = nominal;
     if (admittance_) {
       reference = admittance_->Update(nominal, WrenchInW(state.q_WP, wrench_P_));
@@ -241,7 +268,7 @@ class ControlNode : public bridge::Process {
     PublishWrench("/wrench/command", out.wrench_P);
   }
 
-  const iapsim_msgs::IapState& measured() const { return states_->current(); }
+  const Measured& measured() const { return states_->current(); }
 
   const IapController* active_controller() const {
     if (wrench_controller_) return &wrench_controller_->active_controller();
@@ -272,7 +299,7 @@ class ControlNode : public bridge::Process {
   }
 
   void HoldHover() {
-    const Eigen::Quaterniond q_WP = bridge::FromMsg(measured().bodies[0].pose_W.orientation).normalized();
+    const Eigen::Quaterniond& q_WP = measured().platform.q_WP;
     const double yaw_rad = YawOf(q_WP.toRotationMatrix());
     const Eigen::Quaterniond level(Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()));
     const Allocation allocation(vehicle_);
@@ -305,13 +332,15 @@ class ControlNode : public bridge::Process {
   std::optional<Admittance> admittance_;
   std::optional<DirectWrenchController> wrench_controller_;
   Vector6d wrench_P_ = Vector6d::Zero();  // the latest contact wrench, in P about its origin
-  ros::Time wrench_stamp_;
+  int64_t wrench_stamp_ns_ = -1;
   uint64_t stale_wrench_updates_ = 0;
   std::optional<double> engaged_at_s_;
   double period_s_ = 0.005;
   bridge::Bus* bus_ = nullptr;
   // what has arrived over the sensor link
-  std::optional<SensorLink<iapsim_msgs::IapState>> states_;
+  std::string odometry_topic_;  // empty: the true state
+  int64_t step_ns_ = 1;
+  std::optional<SensorLink<Measured>> states_;
   std::optional<SensorLink<geometry_msgs::WrenchStamped>> wrenches_;
   std::optional<int64_t> newest_state_ns_;  // received, arrived or not
   ros::Time now_;                           // the step being answered: the newest state's stamp

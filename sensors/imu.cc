@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "sensors/gaussian.h"
+
 namespace iapsim::sensors {
 
 ImuNoise TableViNoise() {
@@ -32,30 +34,23 @@ ImuSample IdealImuSample(const BodyKinematics& truth, const Eigen::Vector3d& p_B
 ImuModel::ImuModel(const ImuConfig& config, uint64_t seed)
     : config_(config), random_(seed + config.seed_offset) {
   config_.q_BI.normalize();
-  gyroscope_bias_radps_ =
-      config_.initial_gyroscope_bias_radps + config_.initial_gyroscope_bias_sigma_radps * Gaussian3();
-  accelerometer_bias_mps2_ =
-      config_.initial_accelerometer_bias_mps2 + config_.initial_accelerometer_bias_sigma_mps2 * Gaussian3();
-}
-
-Eigen::Vector3d ImuModel::Gaussian3() {
-  // three statements fix the draw order (an Eigen initialiser list would leave it unspecified)
-  Eigen::Vector3d v;
-  v.x() = normal_(random_);
-  v.y() = normal_(random_);
-  v.z() = normal_(random_);
-  return v;
+  gyroscope_bias_radps_ = config_.initial_gyroscope_bias_radps +
+                          config_.initial_gyroscope_bias_sigma_radps * Gaussian3(random_, normal_);
+  accelerometer_bias_mps2_ = config_.initial_accelerometer_bias_mps2 +
+                             config_.initial_accelerometer_bias_sigma_mps2 * Gaussian3(random_, normal_);
 }
 
 ImuSample ImuModel::Sample(const BodyKinematics& truth, double dt_s) {
   if (!(dt_s > 0.0)) throw std::invalid_argument("ImuModel::Sample: dt_s must be positive");
   const ImuNoise& n = config_.noise;
   const double sqrt_dt = std::sqrt(dt_s);
-  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_dt * Gaussian3();
-  accelerometer_bias_mps2_ += n.accelerometer_random_walk * sqrt_dt * Gaussian3();
+  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_dt * Gaussian3(random_, normal_);
+  accelerometer_bias_mps2_ += n.accelerometer_random_walk * sqrt_dt * Gaussian3(random_, normal_);
   ImuSample sample = IdealImuSample(truth, config_.p_BI_m, config_.q_BI, config_.gravity_mps2);
-  sample.w_I_radps += gyroscope_bias_radps_ + n.gyroscope_noise_density / sqrt_dt * Gaussian3();
-  sample.f_I_mps2 += accelerometer_bias_mps2_ + n.accelerometer_noise_density / sqrt_dt * Gaussian3();
+  sample.w_I_radps +=
+      gyroscope_bias_radps_ + n.gyroscope_noise_density / sqrt_dt * Gaussian3(random_, normal_);
+  sample.f_I_mps2 +=
+      accelerometer_bias_mps2_ + n.accelerometer_noise_density / sqrt_dt * Gaussian3(random_, normal_);
   return sample;
 }
 
@@ -63,9 +58,9 @@ Eigen::Vector3d ImuModel::SampleGyroscope(const Eigen::Vector3d& w_WB_B_radps, d
   if (!(dt_s > 0.0)) throw std::invalid_argument("ImuModel::SampleGyroscope: dt_s must be positive");
   const ImuNoise& n = config_.noise;
   const double sqrt_dt = std::sqrt(dt_s);
-  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_dt * Gaussian3();
+  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_dt * Gaussian3(random_, normal_);
   return config_.q_BI.conjugate() * w_WB_B_radps + gyroscope_bias_radps_ +
-         n.gyroscope_noise_density / sqrt_dt * Gaussian3();
+         n.gyroscope_noise_density / sqrt_dt * Gaussian3(random_, normal_);
 }
 
 }  // namespace iapsim::sensors

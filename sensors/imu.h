@@ -78,8 +78,6 @@ class ImuModel {
   const Eigen::Vector3d& accelerometer_bias_mps2() const { return accelerometer_bias_mps2_; }
 
  private:
-  Eigen::Vector3d Gaussian3();
-
   ImuConfig config_;
   std::mt19937_64 random_;
   std::normal_distribution<double> normal_;

@@ -140,6 +140,21 @@ HeadingSensorConfig ReadHeading(YamlMap& map) {
   return heading;
 }
 
+OdometryConfig ReadOdometry(YamlMap& map) {
+  OdometryConfig odometry;
+  OdometryNoise& n = odometry.noise;
+  map.OptionalInRange("position_sigma_m", &n.position_sigma_m, 0.0, 100.0);
+  OptionalDegrees(map, "attitude_sigma_deg", &n.attitude_sigma_rad, 30.0);
+  map.OptionalInRange("velocity_sigma_mps", &n.velocity_sigma_mps, 0.0, 100.0);
+  map.OptionalInRange("correlation_time_s", &n.correlation_time_s, 0.0, 1e6);
+  map.OptionalInRange("angular_rate_noise_density", &n.angular_rate_noise_density, 0.0, 10.0);
+  map.OptionalInRange("position_drift_m_per_sqrt_s", &n.position_drift_m_per_sqrt_s, 0.0, 10.0);
+  OptionalDegrees(map, "yaw_drift_deg_per_sqrt_s", &n.yaw_drift_rad_per_sqrt_s, 30.0);
+  map.OptionalInRange("rate_hz", &odometry.rate_hz, 1e-3, kMaxRate_hz);
+  map.Finish();
+  return odometry;
+}
+
 }  // namespace
 
 SensorsConfig ReadSensorsConfig(YamlMap& params) {
@@ -157,6 +172,10 @@ SensorsConfig ReadSensorsConfig(YamlMap& params) {
   if (params.Has("heading")) {
     YamlMap heading = params.Map("heading");
     config.heading = ReadHeading(heading);
+  }
+  if (params.Has("odometry")) {
+    YamlMap odometry = params.Map("odometry");
+    config.odometry = ReadOdometry(odometry);
   }
   return config;
 }

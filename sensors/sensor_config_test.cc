@@ -40,6 +40,8 @@ TEST(SensorConfig, DefaultsAreThePapers) {
   EXPECT_EQ(config.wrench_filter.damping, 1.414);
   EXPECT_EQ(config.attitude_estimator.imu_noise.gyroscope_random_walk, table_vi.gyroscope_random_walk);
   EXPECT_FALSE(config.heading.has_value());
+  EXPECT_FALSE(config.odometry.has_value());
+  EXPECT_EQ(Read("odometry: {}").odometry->noise.position_sigma_m, 0.0);  // the truth until told otherwise
 }
 
 TEST(SensorConfig, ReadsEveryKey) {
@@ -77,6 +79,15 @@ attitude_estimator:
   acceleration_sigma_mps2: 1.0
   acceleration_gate_mps2: 3.0
 heading: {sigma_deg: 5, rate_hz: 20}
+odometry:
+  position_sigma_m: 0.02
+  attitude_sigma_deg: 0.5
+  velocity_sigma_mps: 0.05
+  correlation_time_s: 0.2
+  angular_rate_noise_density: 1.5e-3
+  position_drift_m_per_sqrt_s: 0.01
+  yaw_drift_deg_per_sqrt_s: 0.1
+  rate_hz: 100
 )");
   EXPECT_EQ(config.imu.noise.gyroscope_noise_density, 1.0e-3);
   EXPECT_EQ(config.imu.noise.accelerometer_random_walk, 4.0e-4);
@@ -107,6 +118,16 @@ heading: {sigma_deg: 5, rate_hz: 20}
   ASSERT_TRUE(config.heading.has_value());
   EXPECT_NEAR(config.heading->sigma_rad, 5.0 * M_PI / 180.0, 1e-15);
   EXPECT_EQ(config.heading->rate_hz, 20.0);
+  ASSERT_TRUE(config.odometry.has_value());
+  const OdometryNoise& odometry = config.odometry->noise;
+  EXPECT_EQ(odometry.position_sigma_m, 0.02);
+  EXPECT_NEAR(odometry.attitude_sigma_rad, 0.5 * M_PI / 180.0, 1e-15);
+  EXPECT_EQ(odometry.velocity_sigma_mps, 0.05);
+  EXPECT_EQ(odometry.correlation_time_s, 0.2);
+  EXPECT_EQ(odometry.angular_rate_noise_density, 1.5e-3);
+  EXPECT_EQ(odometry.position_drift_m_per_sqrt_s, 0.01);
+  EXPECT_NEAR(odometry.yaw_drift_rad_per_sqrt_s, 0.1 * M_PI / 180.0, 1e-15);
+  EXPECT_EQ(config.odometry->rate_hz, 100.0);
 }
 
 TEST(SensorConfig, EstimatorAssumesTheImuNoiseUnlessTold) {
@@ -148,6 +169,8 @@ TEST(SensorConfig, ErrorsNameTheFileLineAndKey) {
   expect_error("attitude_estimator: {imu_noise: {table_vi: yes please}}",
                "attitude_estimator.imu_noise.table_vi");
   expect_error("heading: {sigma_deg: 0}", "heading.sigma_deg: must be positive");
+  expect_error("odometry: {correlation_time_s: -1}", "odometry.correlation_time_s: must be in");
+  expect_error("odometry: {position_drift: 0.01}", "odometry.position_drift: unknown key");
 }
 
 }  // namespace

@@ -1,13 +1,16 @@
 // iapsim_sensors: the sensors of seed §V-D on the bus, a lockstep participant. From each vehicle state it
 // samples, per sub-aircraft, an IMU, its attitude EKF (a flight controller's attitude estimate) and a UWB
-// tag ranging to the scenario's anchors and to the other tags; and it low-passes the platform's true contact
-// wrench (§VI-E). Every output is stamped with the physics time of the state it derives from.
+// tag ranging to the scenario's anchors and to the other tags; it low-passes the platform's true contact
+// wrench (§VI-E); and, when given `odometry`, it reports the platform's pose and twist as an onboard odometry
+// would (sensors/odometry.h), for a controller that flies on an estimate. Every output is stamped with the
+// physics time of the state it derives from.
 //
 //   subscribes  /<vehicle>/state                 iapsim_msgs/IapState
 //   publishes   /<vehicle>/<sub>/imu             sensor_msgs/Imu (no orientation: covariance[0] = −1)
 //               /<vehicle>/<sub>/attitude        sensor_msgs/Imu (EKF orientation R_WS, bias-corrected rate)
 //               /<vehicle>/<sub>/uwb             iapsim_msgs/UwbRanges (received ranges only)
 //               /<vehicle>/wrench/filtered       geometry_msgs/WrenchStamped (in P, about its origin)
+//               /<vehicle>/odometry              nav_msgs/Odometry (pose in W, twist in P; with `odometry`)
 //
 // Each sensor runs at its own rate_hz, which must divide the process's rate_hz; the process's rate is the
 // step of the wrench filter.
@@ -15,6 +18,7 @@
 #include <geometry_msgs/WrenchStamped.h>
 #include <iapsim_msgs/IapState.h>
 #include <iapsim_msgs/UwbRanges.h>
+#include <nav_msgs/Odometry.h>
 #include <sensor_msgs/Imu.h>
 
 #include <cmath>
@@ -77,6 +81,10 @@ class SensorsNode : public bridge::Process {
           UwbModel(config_.uwb.noise, SeedFor(context.seed, i, 2)), AttitudeErrorStatistics()});
     }
     filter_.emplace(config_.wrench_filter, process_step_s_);
+    if (config_.odometry) {
+      odometry_every_ = Divider(params, "odometry", config_.odometry->rate_hz);
+      odometry_.emplace(*config_.odometry, SeedFor(context.seed, model.sub_aircraft.size(), 0));
+    }
   }
 
   void Setup(bridge::Bus& bus) override {
@@ -97,6 +105,7 @@ class SensorsNode : public bridge::Process {
       if (k % uwb_every_ == 0) SampleUwb(i);
     }
     FilterWrench();
+    if (odometry_ && k % odometry_every_ == 0) SampleOdometry();
   }
 
   void Finish(nlohmann::json* report) override {
@@ -109,6 +118,18 @@ class SensorsNode : public bridge::Process {
       const Eigen::Vector3d max_deg = sub.attitude_errors.MaxAbs_rad() * kRadToDeg;
       out["attitude_error_rms_deg"] = {{"roll", rms_deg.x()}, {"pitch", rms_deg.y()}, {"yaw", rms_deg.z()}};
       out["attitude_error_max_deg"] = {{"roll", max_deg.x()}, {"pitch", max_deg.y()}, {"yaw", max_deg.z()}};
+    }
+    if (odometry_) {
+      nlohmann::json& out = (*report)["odometry"];
+      const double n = static_cast<double>(std::max<uint64_t>(odometry_samples_, 1));
+      const Eigen::Vector3d rms_m = (odometry_position_sum_of_squares_m2_ / n).cwiseSqrt();
+      const Eigen::Vector3d rms_deg = odometry_attitude_errors_.RootMeanSquare_rad() * kRadToDeg;
+      out["samples"] = odometry_samples_;
+      out["position_error_rms_m"] = {rms_m.x(), rms_m.y(), rms_m.z()};
+      out["attitude_error_rms_deg"] = {{"roll", rms_deg.x()}, {"pitch", rms_deg.y()}, {"yaw", rms_deg.z()}};
+      const Eigen::Vector3d& drift_W_m = odometry_->position_drift_W_m();
+      out["final_position_drift_W_m"] = {drift_W_m.x(), drift_W_m.y(), drift_W_m.z()};
+      out["final_yaw_drift_deg"] = odometry_->yaw_drift_rad() * kRadToDeg;
     }
   }
 
@@ -201,12 +222,57 @@ class SensorsNode : public bridge::Process {
     bus_->Publish("/" + vehicle_name_ + "/wrench/filtered", out);
   }
 
+  void SampleOdometry() {
+    const iapsim_msgs::BodyState& platform = state_.bodies[0];
+    OdometryState truth;
+    truth.p_WB_m = bridge::FromMsg(platform.pose_W.position);
+    truth.q_WB = bridge::FromMsg(platform.pose_W.orientation).normalized();
+    truth.v_WB_B_mps = bridge::FromMsg(platform.twist_B.linear);
+    truth.w_WB_B_radps = bridge::FromMsg(platform.twist_B.angular);
+    const OdometryState estimate =
+        odometry_->Sample(truth, static_cast<double>(odometry_every_) * process_step_s_);
+    ++odometry_samples_;
+    odometry_position_sum_of_squares_m2_ += (estimate.p_WB_m - truth.p_WB_m).cwiseAbs2();
+    odometry_attitude_errors_.Add(estimate.q_WB, truth.q_WB);
+
+    nav_msgs::Odometry odometry;
+    odometry.header.stamp = state_.header.stamp;
+    odometry.header.frame_id = "W";
+    odometry.child_frame_id = vehicle_name_ + "/P";
+    odometry.pose.pose.position = bridge::ToPointMsg(estimate.p_WB_m);
+    odometry.pose.pose.orientation = bridge::ToQuaternionMsg(estimate.q_WB);
+    odometry.twist.twist.linear = bridge::ToVector3Msg(estimate.v_WB_B_mps);
+    odometry.twist.twist.angular = bridge::ToVector3Msg(estimate.w_WB_B_radps);
+    // the model's variances (row-major 6×6, x y z then rotations): the noise plus the drift grown so far
+    const OdometryNoise& noise = odometry_->config().noise;
+    const double t_s = static_cast<double>(odometry_samples_ - 1) * odometry_every_ * process_step_s_;
+    const double position_variance =
+        noise.position_sigma_m * noise.position_sigma_m +
+        noise.position_drift_m_per_sqrt_s * noise.position_drift_m_per_sqrt_s * t_s;
+    const double attitude_variance = noise.attitude_sigma_rad * noise.attitude_sigma_rad;
+    const double yaw_variance =
+        attitude_variance + noise.yaw_drift_rad_per_sqrt_s * noise.yaw_drift_rad_per_sqrt_s * t_s;
+    const double rate_variance = noise.angular_rate_noise_density * noise.angular_rate_noise_density /
+                                 (static_cast<double>(odometry_every_) * process_step_s_);
+    for (int i = 0; i < 3; ++i) {
+      odometry.pose.covariance[7 * i] = position_variance;
+      odometry.pose.covariance[7 * (i + 3)] = i == 2 ? yaw_variance : attitude_variance;
+      odometry.twist.covariance[7 * i] = noise.velocity_sigma_mps * noise.velocity_sigma_mps;
+      odometry.twist.covariance[7 * (i + 3)] = rate_variance;
+    }
+    bus_->Publish("/" + vehicle_name_ + "/odometry", odometry);
+  }
+
   double process_step_s_;
   std::string vehicle_name_;
   SensorsConfig config_;
-  uint64_t imu_every_ = 1, uwb_every_ = 1, heading_every_ = 1;
+  uint64_t imu_every_ = 1, uwb_every_ = 1, heading_every_ = 1, odometry_every_ = 1;
   std::vector<SubAircraftSensors> subs_;
   std::optional<WrenchFilter> filter_;
+  std::optional<OdometryModel> odometry_;
+  uint64_t odometry_samples_ = 0;
+  Eigen::Vector3d odometry_position_sum_of_squares_m2_ = Eigen::Vector3d::Zero();
+  AttitudeErrorStatistics odometry_attitude_errors_;
   bridge::Bus* bus_ = nullptr;
   iapsim_msgs::IapState state_;
   bool have_state_ = false;
