@@ -473,6 +473,7 @@ LaunchResult Launch(const LaunchOptions& options) {
   metrics["scenario"] = scenario.name;
   metrics["mode"] = ToString(scenario.mode);
   metrics["seed"] = scenario.seed;
+  metrics["fidelity"] = scenario.fidelity;
   metrics["duration_s"] = scenario.duration_s;
   metrics["clock_step_s"] = scenario.clock.step_s;
   metrics["result"] = failure.empty() ? "completed" : "failed";

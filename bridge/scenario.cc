@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <set>
@@ -64,6 +65,68 @@ void CheckStepOrder(const std::vector<ProcessConfig>& processes, const std::map<
   }
 }
 
+// Fills in what `into` lacks from `from`, map by map; a value `into` has (a scalar, a list) stays.
+void FillMissing(YAML::Node into, const YAML::Node& from) {
+  for (const auto& entry : from) {
+    const std::string key = entry.first.Scalar();
+    YAML::Node mine = into[key];
+    if (!mine.IsDefined() || mine.IsNull()) {
+      into[key] = YAML::Clone(entry.second);
+    } else if (mine.IsMap() && entry.second.IsMap()) {
+      FillMissing(mine, entry.second);
+    }
+  }
+}
+
+// `fidelity: NAME` (IAPSIM_PROFILE_DIR/NAME.yaml) or `fidelity: FILE.yaml` (relative to the scenario): each
+// process whose exec the profile lists gets the profile's keys for that exec where it does not set them.
+void ApplyFidelityProfile(YAML::Node root, const std::string& scenario_path, std::string* fidelity) {
+  YamlMap top(root, scenario_path);
+  top.Optional("fidelity", fidelity);
+  if (*fidelity == "ideal") return;
+  const bool is_file = fidelity->size() > 5 && fidelity->substr(fidelity->size() - 5) == ".yaml";
+  std::string path = std::string(IAPSIM_PROFILE_DIR) + "/" + *fidelity + ".yaml";
+  if (is_file) {  // made absolute, so that the run's scenario.resolved.yaml finds it too
+    path = ReadFilePath(top, "fidelity", scenario_path);
+    *fidelity = path;
+    root["fidelity"] = path;
+  } else if (!std::filesystem::exists(path)) {
+    top.Fail("fidelity", "expected ideal, a profile of " + std::string(IAPSIM_PROFILE_DIR) +
+                             " (without .yaml) or a profile file ending in .yaml; '" + *fidelity +
+                             "' is neither");
+  }
+  YamlMap profile(LoadYamlFile(path), path);
+  std::string description;
+  profile.Optional("description", &description);
+  const YAML::Node scenario_processes = root["processes"];
+  YamlMap by_exec = profile.Map("processes");
+  std::set<std::string> found_execs;
+  for (const std::string& exec : by_exec.Keys()) {
+    const YAML::Node keys = by_exec.Raw(exec);
+    if (!keys.IsMap()) by_exec.Fail(exec, "expected the process keys (params, after, ...) this profile sets");
+    if (!scenario_processes.IsMap()) continue;  // reported with the rest of the scenario
+    for (auto process : scenario_processes) {
+      if (!process.second.IsMap() || !process.second["exec"] || process.second["exec"].Scalar() != exec)
+        continue;
+      FillMissing(process.second, keys);
+      found_execs.insert(exec);
+    }
+    by_exec.SetResolved(exec, keys);
+  }
+  // a profile may need a process that only the scenario can give (its vehicle, its rate)
+  const YAML::Node requires_execs = profile.Raw("requires");
+  if (requires_execs && !requires_execs.IsSequence()) profile.Fail("requires", "expected a list of execs");
+  for (const auto& required : requires_execs) {
+    const std::string exec = required.Scalar();
+    if (found_execs.count(exec) == 0) {
+      top.Fail("fidelity",
+               "'" + *fidelity + "' (" + path + ") needs a process running " + exec +
+                   ": add one to the scenario (configs/regression/three_star_spiral.yaml has one)");
+    }
+  }
+  profile.Finish();
+}
+
 // 64-bit FNV-1a, stable across platforms and runs (std::hash is not guaranteed to be)
 uint64_t StableHash(const std::string& text, uint64_t seed) {
   uint64_t hash = 1469598103934665603ull ^ seed;
@@ -118,7 +181,9 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
 
   Scenario s;
   s.file = path;
+  ApplyFidelityProfile(root, path, &s.fidelity);
   YamlMap top(root, path);
+  top.Optional("fidelity", &s.fidelity);
   top.Required("name", &s.name);
   top.Optional("description", &s.description);
   std::string mode = "lockstep";

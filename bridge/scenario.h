@@ -77,6 +77,8 @@ struct Scenario {
   ClockMode mode = ClockMode::kLockstep;
   double duration_s = 10.0;
   uint64_t seed = 1;
+  // ideal: the scenario as written; a profile's name or file: its settings fill what the scenario leaves out
+  std::string fidelity = "ideal";
   ClockConfig clock;
   BusConfig bus;
   RecordingConfig recording;

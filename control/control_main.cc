@@ -10,9 +10,10 @@
 //                 wrench comes from wrench_topic (the sensors' low-passed wrench; give this process
 //                 `after: [sensors]` in lockstep so it reads the wrench of its own step).
 //   odometry_topic  the platform's pose and twist come from this nav_msgs/Odometry (the sensors process's
-//                 odometry, or an estimator's: pose in W, twist in P) instead of the true state, which
-//                 this process then does not read (issue 19's estimation in the loop). In lockstep give
-//                 the process `after: [sensors]` and the odometry the controller's rate.
+//                 odometry, or an estimator's: pose in W, twist in P; a relative name is the vehicle's)
+//                 instead of the true state, which this process then does not read (issue 19's
+//                 estimation in the loop). In lockstep give the process `after: [sensors]` and the
+//                 odometry the controller's rate.
 //   sensor_link: {delay_s, jitter_s}  what this computer reads of the vehicle (state and wrench) reaches it
 //                 that long after it was measured (control/sensor_link.h); it controls with the newest that
 //                 has arrived and sends nothing before the first (the flight controllers hold their initial
@@ -92,6 +93,10 @@ class ControlNode : public bridge::Process {
       link.Finish();
     }
     params.Optional("odometry_topic", &odometry_topic_);
+    // a relative name is the vehicle's, as in ROS: odometry is /<vehicle>/odometry
+    if (!odometry_topic_.empty() && odometry_topic_[0] != '/') {
+      odometry_topic_ = "/" + vehicle_name_ + "/" + odometry_topic_;
+    }
     const double step_s = context.scenario.clock.step_s;
     step_ns_ = static_cast<int64_t>(std::llround(step_s * 1e9));
     try {  // one jitter stream per input

@@ -38,12 +38,14 @@ struct RegressArgs {
   std::vector<std::string> overrides;  // --set KEY=VALUE, on every flight
   int monte_carlo = 0;                 // draws per flight; 0: each flight once
   bool keep_bags = false;              // Monte Carlo: keep every draw's recording
+  std::string fidelity;                // ideal | realistic | both; default both, Monte Carlo realistic
 };
 /// Runs every regression flight of DIR/suite.yaml in lockstep, evaluates it, compares the metrics with the
-/// suite's thresholds and prints a table. With `monte_carlo` N, flies each N times with seeds 1..N and the
-/// suite's `monte_carlo.set` keys, and checks the 95th/5th percentiles of the metrics and the task success
-/// rate against the flights' `monte_carlo` bounds. Returns 1 on any regression, 2 on a bad suite, 130
-/// interrupted.
+/// suite's thresholds and prints a table: each flight in the ideal profile against its `max`/`contact_*`
+/// bounds and in `fidelity: realistic` against its `realistic` bounds. With `monte_carlo` N, flies each N
+/// times (realistic unless told otherwise) with seeds 1..N and the suite's `monte_carlo.set` keys, and checks
+/// the 95th/5th percentiles of the metrics and the task success rate against the flights' `monte_carlo`
+/// bounds. Returns 1 on any regression, 2 on a bad suite, 130 interrupted.
 int Regress(const RegressArgs& args);
 
 int Info(const std::string& bag);

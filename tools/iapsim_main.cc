@@ -56,6 +56,10 @@ int main(int argc, char** argv) {
           "--monte-carlo", regress.monte_carlo,
           "fly each flight N times (seeds 1..N) with the suite's monte_carlo keys; check percentiles")
       ->check(CLI::Range(1, 100000));
+  regress_cmd
+      ->add_option("--fidelity", regress.fidelity,
+                   "the profile flown: ideal, realistic or both (default both; Monte Carlo: realistic)")
+      ->check(CLI::IsMember({"ideal", "realistic", "both"}));
   regress_cmd->add_flag("--keep-bags", regress.keep_bags,
                         "Monte Carlo: keep each draw's run.bag (by default deleted once evaluated)");
 

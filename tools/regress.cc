@@ -1,8 +1,9 @@
 // `iapsim regress`: the regression flights of a suite (configs/regression/suite.yaml), each run in lockstep
-// and evaluated like `iapsim run` does, its metrics compared with the suite's upper bounds. With
-// `--monte-carlo N` each flight flies N seeded draws of the suite's `monte_carlo` settings (a model
-// mismatch), and its metrics' percentiles and task success rate are compared with the flight's
-// `monte_carlo` bounds.
+// and evaluated like `iapsim run` does, its metrics compared with the suite's upper bounds: once as written
+// (fidelity ideal) and once with `fidelity: realistic` (configs/profiles/realistic.yaml). With
+// `--monte-carlo N` each flight flies N seeds of the realistic profile (each a model-mismatch draw, its own
+// turbulence and sensor noise), and its metrics' percentiles and task success rate are compared with the
+// flight's `monte_carlo` bounds.
 
 #include <algorithm>
 #include <cmath>
@@ -47,7 +48,8 @@ struct Bound {
 struct Flight {
   std::string name;
   std::string scenario;
-  std::vector<Bound> bounds;  // one run
+  std::vector<Bound> bounds;            // one run, ideal
+  std::vector<Bound> realistic_bounds;  // one run, fidelity: realistic
   // --monte-carlo: bounds on the draws' 95th (max) and 5th (min) percentiles, and the least fraction of
   // draws that meet the flight's own contact bounds (that did the task)
   std::vector<Bound> monte_carlo_bounds;
@@ -141,6 +143,9 @@ Suite ReadSuite(const std::string& suite_dir) {
     flight.scenario = (fs::path(suite_dir) / flight.scenario).string();
     if (!fs::exists(flight.scenario)) map.Fail("scenario", "no such file: " + flight.scenario);
     flight.bounds = ReadBounds(map);
+    bridge::YamlMap realistic = map.Map("realistic");
+    flight.realistic_bounds = ReadBounds(realistic);
+    realistic.Finish();
     bridge::YamlMap monte_carlo = map.Map("monte_carlo");
     flight.monte_carlo_bounds = ReadBounds(monte_carlo);
     monte_carlo.Optional("task_success_min", &flight.task_success_min);
@@ -217,7 +222,7 @@ bool Check(const std::string& flight, const std::string& metric, double value, c
            nlohmann::json* checks) {
   const bool ok = Holds(value, bound);
   const double limit = std::isnan(bound.max) ? bound.min : bound.max;
-  std::printf("%-22s %-40s %12.4f %4s %9.4f  %s\n", flight.c_str(), metric.c_str(), value,
+  std::printf("%-28s %-40s %12.4f %4s %9.4f  %s\n", flight.c_str(), metric.c_str(), value,
               std::isnan(bound.max) ? "min" : "max", limit, ok ? "ok" : "REGRESSION");
   (*checks)[metric] = {{"value", value}, {std::isnan(bound.max) ? "min" : "max", limit}, {"ok", ok}};
   return ok;
@@ -265,27 +270,37 @@ std::vector<Flight> Selected(const std::vector<Flight>& flights, const std::vect
   return out;
 }
 
-// Each flight once, its metrics against its bounds.
-int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::string>& overrides,
-                const fs::path& out_dir, nlohmann::json* report, bool* interrupted) {
+// Each flight once in each of `profiles`, its metrics against the bounds of that profile. A realistic run
+// is named <flight>-realistic (its folder, its rows and its entry in the report).
+int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::string>& profiles,
+                const std::vector<std::string>& overrides, const fs::path& out_dir, nlohmann::json* report,
+                bool* interrupted) {
   int failures = 0;
-  std::printf("%-22s %-40s %12s %14s  %s\n", "flight", "metric", "value", "bound", "result");
+  std::printf("%-28s %-40s %12s %14s  %s\n", "flight", "metric", "value", "bound", "result");
   for (const Flight& flight : flights) {
-    const FlightRun run = Fly(flight, overrides, out_dir / flight.name, false);
-    nlohmann::json& entry = (*report)[flight.name];
-    entry["run_dir"] = run.run_dir;
-    if (!run.error.empty()) {
-      std::printf("%-22s %-40s  FAILED: %s\n", flight.name.c_str(), "run", run.error.c_str());
-      entry["error"] = run.error;
-      ++failures;
-      if (run.exit_code == 130) return *interrupted = true, failures;
-      continue;
+    for (const std::string& profile : profiles) {
+      const bool ideal = profile == "ideal";
+      const std::string name = ideal ? flight.name : flight.name + "-" + profile;
+      std::vector<std::string> profile_overrides = overrides;
+      profile_overrides.insert(profile_overrides.begin(),
+                               "fidelity=" + profile);  // --set may still change it
+      const FlightRun run = Fly(flight, profile_overrides, out_dir / name, false);
+      nlohmann::json& entry = (*report)[name];
+      entry["run_dir"] = run.run_dir;
+      entry["fidelity"] = profile;
+      if (!run.error.empty()) {
+        std::printf("%-28s %-40s  FAILED: %s\n", name.c_str(), "run", run.error.c_str());
+        entry["error"] = run.error;
+        ++failures;
+        if (run.exit_code == 130) return *interrupted = true, failures;
+        continue;
+      }
+      for (const auto& [analysis, section] : run.metrics.items()) entry[analysis] = section;
+      for (const Bound& bound : ideal ? flight.bounds : flight.realistic_bounds) {
+        if (!Check(name, bound.Metric(), Value(run.metrics, bound), bound, &entry["checks"])) ++failures;
+      }
+      std::printf("%-28s plots and metrics in %s\n", name.c_str(), run.run_dir.c_str());
     }
-    for (const auto& [analysis, section] : run.metrics.items()) entry[analysis] = section;
-    for (const Bound& bound : flight.bounds) {
-      if (!Check(flight.name, bound.Metric(), Value(run.metrics, bound), bound, &entry["checks"])) ++failures;
-    }
-    std::printf("%-22s plots and metrics in %s\n", flight.name.c_str(), run.run_dir.c_str());
   }
   return failures;
 }
@@ -293,17 +308,20 @@ int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::strin
 // Each flight `draws` times with seeds 1..draws (a draw's bag deleted once evaluated, unless kept; a failed
 // draw keeps it); the monte_carlo bounds hold for the 95th percentile of a
 // metric (an upper bound) or its 5th (a lower bound), every draw must fly, and at least task_success_min of
-// the draws must meet the flight's own contact bounds.
+// the draws must meet the flight's own contact bounds (its realistic ones when the draws fly realistic).
 int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std::string>& overrides,
-                      int draws, bool keep_bags, const fs::path& out_dir, nlohmann::json* report,
-                      bool* interrupted) {
+                      bool realistic, int draws, bool keep_bags, const fs::path& out_dir,
+                      nlohmann::json* report, bool* interrupted) {
   int failures = 0;
   for (const Flight& flight : flights) {
     nlohmann::json& entry = (*report)[flight.name];
     std::vector<nlohmann::json> metrics;
     std::vector<std::string> csvs;
-    std::vector<Bound> task;  // the flight's contact bounds: what doing its task means
-    std::copy_if(flight.bounds.begin(), flight.bounds.end(), std::back_inserter(task),
+    // the flight's contact bounds in the profile flown: what doing its task means
+    const std::vector<Bound>& own =
+        realistic && !flight.realistic_bounds.empty() ? flight.realistic_bounds : flight.bounds;
+    std::vector<Bound> task;
+    std::copy_if(own.begin(), own.end(), std::back_inserter(task),
                  [](const Bound& bound) { return bound.analysis == "contact"; });
     int task_successes = 0;
     for (int seed = 1; seed <= draws; ++seed) {
@@ -344,6 +362,10 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
         std::printf("%-22s draw %d/%d (seed %d): flown\n", flight.name.c_str(), seed, draws, seed);
       }
       metrics.push_back(run.metrics);
+      if (!entry.contains("fidelity")) {  // as the run resolved it (the profile, or a --set fidelity)
+        std::ifstream run_metrics(fs::path(run.run_dir) / "metrics.json");
+        entry["fidelity"] = nlohmann::json::parse(run_metrics, nullptr, false).value("fidelity", "?");
+      }
       // a recorded flight is hundreds of MB (the spiral's 318): a draw keeps its metrics, CSVs and logs
       if (!keep_bags) fs::remove(fs::path(run.run_dir) / "run.bag");
       if (std::all_of(task.begin(), task.end(),
@@ -409,19 +431,27 @@ int Regress(const RegressArgs& args) {
   fs::create_directories(out_dir);
   const std::vector<Flight> flights = Selected(suite.flights, args.only);
 
-  // the suite's Monte Carlo settings first, so the command line's --set wins
+  // the profile, then the suite's Monte Carlo settings, so the command line's --set wins
   std::vector<std::string> overrides{"mode=lockstep"};
   if (args.monte_carlo > 0) {
+    if (args.fidelity == "both") {
+      std::cerr << "iapsim: --monte-carlo flies one profile: --fidelity ideal or realistic" << std::endl;
+      return 2;
+    }
+    overrides.push_back("fidelity=" + (args.fidelity.empty() ? std::string("realistic") : args.fidelity));
     overrides.insert(overrides.end(), suite.monte_carlo_overrides.begin(), suite.monte_carlo_overrides.end());
   }
   overrides.insert(overrides.end(), args.overrides.begin(), args.overrides.end());
+  const std::vector<std::string> profiles = args.fidelity.empty() || args.fidelity == "both"
+                                                ? std::vector<std::string>{"ideal", "realistic"}
+                                                : std::vector<std::string>{args.fidelity};
 
   nlohmann::json report;
   bool interrupted = false;
   const int failures = args.monte_carlo > 0
-                           ? RegressMonteCarlo(flights, overrides, args.monte_carlo, args.keep_bags, out_dir,
-                                               &report, &interrupted)
-                           : RegressOnce(flights, overrides, out_dir, &report, &interrupted);
+                           ? RegressMonteCarlo(flights, overrides, args.fidelity != "ideal", args.monte_carlo,
+                                               args.keep_bags, out_dir, &report, &interrupted)
+                           : RegressOnce(flights, profiles, overrides, out_dir, &report, &interrupted);
   const fs::path report_path = out_dir / "regress.json";
   std::ofstream(report_path) << report.dump(2) << "\n";
   if (interrupted) {

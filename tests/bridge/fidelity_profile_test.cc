@@ -1,0 +1,86 @@
+// `fidelity:` in a scenario (bridge/scenario.h): a profile fills in, per process exec, what the scenario
+// leaves out, the scenario's own values and --set winning; a missing required process and an unknown profile
+// are errors naming the key.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "bridge/scenario.h"
+
+namespace iapsim::bridge {
+namespace {
+
+const std::string kRegression = std::string(IAPSIM_SOURCE_DIR) + "/configs/regression/";
+
+YAML::Node ParamsOf(const Scenario& scenario, const std::string& process) {
+  return scenario.Find(process)->params;
+}
+
+std::string ErrorOf(const std::string& path, const std::vector<std::string>& overrides) {
+  try {
+    LoadScenario(path, overrides);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(FidelityProfile, IdealIsTheScenarioAsWritten) {
+  const Scenario scenario = LoadScenario(kRegression + "three_star_spiral.yaml");
+  EXPECT_EQ(scenario.fidelity, "ideal");
+  EXPECT_FALSE(ParamsOf(scenario, "physics")["air"]);
+  EXPECT_FALSE(ParamsOf(scenario, "control")["odometry_topic"]);
+  EXPECT_TRUE(scenario.Find("control")->after.empty());
+}
+
+TEST(FidelityProfile, RealisticFillsWhatTheScenarioLeavesOutAndTheScenarioWins) {
+  const Scenario scenario =
+      LoadScenario(kRegression + "three_star_spiral.yaml",
+                   {"fidelity=realistic", "processes.physics.params.air.wind_W_mps=[0, 3, 0]",
+                    "processes.control.params.sensor_link={delay_s: 0.01}"});
+  EXPECT_EQ(scenario.fidelity, "realistic");
+  const YAML::Node physics = ParamsOf(scenario, "physics");
+  EXPECT_EQ(physics["air"]["wind_W_mps"][1].as<double>(), 3.0);                  // --set's
+  EXPECT_EQ(physics["air"]["turbulence"]["model"].as<std::string>(), "dryden");  // the profile's, beside it
+  EXPECT_EQ(physics["flight_controller_sensing"].as<std::string>(), "gyro");
+  EXPECT_EQ(physics["uncertainty"]["mass"]["normal"].as<double>(), 0.02);
+  EXPECT_EQ(physics["vehicles"][0]["name"].as<std::string>(), "iap");  // the scenario's own, untouched
+  const YAML::Node control = ParamsOf(scenario, "control");
+  EXPECT_EQ(control["odometry_topic"].as<std::string>(), "odometry");
+  EXPECT_EQ(control["sensor_link"]["delay_s"].as<double>(), 0.01);
+  EXPECT_TRUE(control["sensor_link"]["jitter_s"].IsScalar());  // filled in beside --set's delay
+  EXPECT_EQ(scenario.Find("control")->after, std::vector<std::string>{"sensors"});
+  EXPECT_EQ(ParamsOf(scenario, "sensors")["odometry"]["rate_hz"].as<double>(), 200.0);
+  EXPECT_EQ(scenario.resolved["fidelity"].as<std::string>(), "realistic");
+}
+
+TEST(FidelityProfile, ARequiredProcessMissingOrAnUnknownProfileIsAnErrorNamingTheKey) {
+  const std::string hover = std::string(IAPSIM_SOURCE_DIR) + "/configs/scenarios/three_star_hover.yaml";
+  const std::string missing = ErrorOf(hover, {"fidelity=realistic"});
+  EXPECT_NE(missing.find("three_star_hover.yaml"), std::string::npos) << missing;
+  EXPECT_NE(missing.find("fidelity: 'realistic'"), std::string::npos) << missing;
+  EXPECT_NE(missing.find("needs a process running iapsim_sensors"), std::string::npos) << missing;
+  const std::string unknown = ErrorOf(kRegression + "three_star_spiral.yaml", {"fidelity=realstic"});
+  EXPECT_NE(unknown.find("fidelity: expected ideal, a profile of"), std::string::npos) << unknown;
+  const std::string no_file = ErrorOf(kRegression + "three_star_spiral.yaml", {"fidelity=nowhere.yaml"});
+  EXPECT_NE(no_file.find("fidelity"), std::string::npos) << no_file;
+}
+
+TEST(FidelityProfile, AProfileFileIsFoundBesideTheScenarioAndResolvedToAnAbsolutePath) {
+  const std::filesystem::path dir =
+      std::filesystem::path(::testing::TempDir()) / ("iapsim-profile-" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "windy.yaml")
+      << "processes:\n  iapsim_physics:\n    params:\n      air: {wind_W_mps: [1, 2, 3]}\n";
+  std::ofstream(dir / "flight.yaml") << "name: f\nfidelity: windy.yaml\nprocesses:\n"
+                                        "  physics: {exec: iapsim_physics, role: clock}\n";
+  const Scenario scenario = LoadScenario((dir / "flight.yaml").string());
+  EXPECT_EQ(scenario.fidelity, (dir / "windy.yaml").string());
+  EXPECT_EQ(ParamsOf(scenario, "physics")["air"]["wind_W_mps"][2].as<double>(), 3.0);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace iapsim::bridge
