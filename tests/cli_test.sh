@@ -156,7 +156,9 @@ grep -q "position_max_m.x p95 .* ok" "$work/mc.out" || fail "no passed p95 check
 /usr/bin/python3 -c "
 import json, sys
 out = sys.argv[1]
-stats = json.load(open(out + '/spiral/metrics.json'))['tracking']['position_max_m']['z']
+summary = json.load(open(out + '/spiral/metrics.json'))
+assert summary['fidelity'] == 'realistic', summary['fidelity']  # Monte Carlo flies the realistic profile
+stats = summary['tracking']['position_max_m']['z']
 draws = [json.load(open(f'{out}/spiral/draw-{k}/metrics.json')) for k in (1, 2, 3)]
 z = sorted(d['tracking']['position_max_m']['z'] for d in draws)
 assert stats['draws'] == 3 and stats['min'] == z[0] and stats['max'] == z[2], (stats, z)

@@ -310,16 +310,17 @@ int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::strin
 // metric (an upper bound) or its 5th (a lower bound), every draw must fly, and at least task_success_min of
 // the draws must meet the flight's own contact bounds (its realistic ones when the draws fly realistic).
 int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std::string>& overrides,
-                      bool realistic, int draws, bool keep_bags, const fs::path& out_dir,
+                      const std::string& fidelity, int draws, bool keep_bags, const fs::path& out_dir,
                       nlohmann::json* report, bool* interrupted) {
   int failures = 0;
   for (const Flight& flight : flights) {
     nlohmann::json& entry = (*report)[flight.name];
+    entry["fidelity"] = fidelity;
     std::vector<nlohmann::json> metrics;
     std::vector<std::string> csvs;
     // the flight's contact bounds in the profile flown: what doing its task means
     const std::vector<Bound>& own =
-        realistic && !flight.realistic_bounds.empty() ? flight.realistic_bounds : flight.bounds;
+        fidelity == "realistic" && !flight.realistic_bounds.empty() ? flight.realistic_bounds : flight.bounds;
     std::vector<Bound> task;
     std::copy_if(own.begin(), own.end(), std::back_inserter(task),
                  [](const Bound& bound) { return bound.analysis == "contact"; });
@@ -330,7 +331,7 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
       const FlightRun run =
           Fly(flight, draw_overrides, out_dir / flight.name / ("draw-" + std::to_string(seed)), true);
       if (!run.error.empty()) {
-        std::printf("%-22s draw %d/%d (seed %d): FAILED: %s\n", flight.name.c_str(), seed, draws, seed,
+        std::printf("%-28s draw %d/%d (seed %d): FAILED: %s\n", flight.name.c_str(), seed, draws, seed,
                     run.error.c_str());
         entry["failed_draws"].push_back({{"seed", seed}, {"error", run.error}, {"run_dir", run.run_dir}});
         ++failures;
@@ -355,17 +356,13 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
           }
           line += std::string(" ]") + unit;
         }
-        std::printf("%-22s draw %d/%d (seed %d): max |error|%s\n", flight.name.c_str(), seed, draws, seed,
+        std::printf("%-28s draw %d/%d (seed %d): max |error|%s\n", flight.name.c_str(), seed, draws, seed,
                     line.c_str());
         csvs.push_back(tracking["csv"].get<std::string>());
       } else {
-        std::printf("%-22s draw %d/%d (seed %d): flown\n", flight.name.c_str(), seed, draws, seed);
+        std::printf("%-28s draw %d/%d (seed %d): flown\n", flight.name.c_str(), seed, draws, seed);
       }
       metrics.push_back(run.metrics);
-      if (!entry.contains("fidelity")) {  // as the run resolved it (the profile, or a --set fidelity)
-        std::ifstream run_metrics(fs::path(run.run_dir) / "metrics.json");
-        entry["fidelity"] = nlohmann::json::parse(run_metrics, nullptr, false).value("fidelity", "?");
-      }
       // a recorded flight is hundreds of MB (the spiral's 318): a draw keeps its metrics, CSVs and logs
       if (!keep_bags) fs::remove(fs::path(run.run_dir) / "run.bag");
       if (std::all_of(task.begin(), task.end(),
@@ -385,7 +382,7 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
       if (!Check(flight.name, "task_success_rate", rate, bound, &entry["checks"])) ++failures;
     }
     if (flight.monte_carlo_bounds.empty() && task.empty()) {
-      std::printf("%-22s no monte_carlo bounds: percentiles reported, nothing checked\n",
+      std::printf("%-28s no monte_carlo bounds: percentiles reported, nothing checked\n",
                   flight.name.c_str());
     }
     for (const Bound& bound : flight.monte_carlo_bounds) {
@@ -403,7 +400,7 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
       args.insert(args.end(), csvs.begin(), csvs.end());
       if (RunPlotScript(IAPSIM_PLOT_MONTE_CARLO, args)) entry["plot"] = plot.string();
     }
-    std::printf("%-22s percentiles over %zu draws in %s/metrics.json\n", flight.name.c_str(), metrics.size(),
+    std::printf("%-28s percentiles over %zu draws in %s/metrics.json\n", flight.name.c_str(), metrics.size(),
                 flight_dir.c_str());
   }
   return failures;
@@ -433,12 +430,13 @@ int Regress(const RegressArgs& args) {
 
   // the profile, then the suite's Monte Carlo settings, so the command line's --set wins
   std::vector<std::string> overrides{"mode=lockstep"};
+  const std::string monte_carlo_fidelity = args.fidelity.empty() ? "realistic" : args.fidelity;
   if (args.monte_carlo > 0) {
     if (args.fidelity == "both") {
       std::cerr << "iapsim: --monte-carlo flies one profile: --fidelity ideal or realistic" << std::endl;
       return 2;
     }
-    overrides.push_back("fidelity=" + (args.fidelity.empty() ? std::string("realistic") : args.fidelity));
+    overrides.push_back("fidelity=" + monte_carlo_fidelity);
     overrides.insert(overrides.end(), suite.monte_carlo_overrides.begin(), suite.monte_carlo_overrides.end());
   }
   overrides.insert(overrides.end(), args.overrides.begin(), args.overrides.end());
@@ -449,7 +447,7 @@ int Regress(const RegressArgs& args) {
   nlohmann::json report;
   bool interrupted = false;
   const int failures = args.monte_carlo > 0
-                           ? RegressMonteCarlo(flights, overrides, args.fidelity != "ideal", args.monte_carlo,
+                           ? RegressMonteCarlo(flights, overrides, monte_carlo_fidelity, args.monte_carlo,
                                                args.keep_bags, out_dir, &report, &interrupted)
                            : RegressOnce(flights, profiles, overrides, out_dir, &report, &interrupted);
   const fs::path report_path = out_dir / "regress.json";
