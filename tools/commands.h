@@ -95,8 +95,13 @@ int BenchRender(const std::string& scene_path, const std::string& vehicle_path, 
 /// alternating: best and median, real-time factor, the recorded/unrecorded ratio and the bag's size.
 int BenchRecord(const std::string& scenario, int repeats, nlohmann::json* report);
 
+/// Issue 19's reference checks (tools/fidelity_reference.h) on the vehicle and its first sub-aircraft: a 1 N
+/// step force, a 10° attitude step and the rate loop's frequency response, a pack's hover discharge, each
+/// beside its linear model or published value, ideal and realistic actuation.
+int BenchFidelity(const std::string& vehicle_path, nlohmann::json* report);
+
 struct BenchArgs {
-  std::string what = "all";  // bus, physics, render, record or all
+  std::string what = "all";  // bus, physics, render, record, fidelity or all
   std::string vehicle = "configs/vehicles/three_star.yaml";
   std::string scene = "configs/scenes/buildings.yaml";
   std::string scenario = "configs/regression/three_star_spiral.yaml";

@@ -103,10 +103,10 @@ int main(int argc, char** argv) {
 
   BenchArgs bench;
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
-  bench_cmd->add_option("what", bench.what, "bus, physics, render, record or all")
-      ->check(CLI::IsMember({"bus", "physics", "render", "record", "all"}));
+  bench_cmd->add_option("what", bench.what, "bus, physics, render, record, fidelity or all")
+      ->check(CLI::IsMember({"bus", "physics", "render", "record", "fidelity", "all"}));
   bench_cmd->add_option("--vehicle", bench.vehicle,
-                        "physics, render: the vehicle to measure (default the three-star)");
+                        "physics, render, fidelity: the vehicle to measure (default the three-star)");
   bench_cmd->add_option("--scene", bench.scene, "render: the scene (default configs/scenes/buildings.yaml)");
   bench_cmd
       ->add_option("--scenario", bench.scenario,
