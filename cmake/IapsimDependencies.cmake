@@ -1,6 +1,8 @@
 # Every third-party dependency, found once. All come from Debian packages (tools/install-deps.sh).
 find_package(PkgConfig REQUIRED)
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+# Boost.Random (header-only): the ziggurat every noise model draws its normals from (sensors/gaussian.h)
+find_package(Boost 1.74 REQUIRED CONFIG)
 find_package(yaml-cpp REQUIRED)
 find_package(spdlog REQUIRED)
 find_package(CLI11 REQUIRED)

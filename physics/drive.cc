@@ -10,21 +10,6 @@ namespace {
 
 constexpr double kVoltageFilterTimeConstant_s = 1.0;  // PX4's Battery: _voltage_filter_v, 1 s
 
-double BackEmf_V_per_rad_s(const model::RotorSet& rotors) {
-  return 60.0 / (2.0 * M_PI * rotors.electric.kv_rpm_per_V);
-}
-
-// The motor equation's steady speed: R k_m / k_t ω² + k_e ω + (R I₀ − u V) = 0, the positive root in a form
-// that does not cancel.
-double SteadySpeed(const model::RotorSet& rotors, double throttle, double voltage_V) {
-  const double k_e = BackEmf_V_per_rad_s(rotors);
-  const double R = rotors.electric.resistance_ohm;
-  const double a = R * rotors.torque_coefficient / k_e;
-  const double drive_V = std::clamp(throttle, 0.0, 1.0) * voltage_V - R * rotors.electric.no_load_current_A;
-  if (drive_V <= 0.0) return 0.0;
-  return 2.0 * drive_V / (k_e + std::sqrt(k_e * k_e + 4.0 * a * drive_V));
-}
-
 }  // namespace
 
 double LithiumPolymerCellVoltage_V(double state_of_charge) {
@@ -43,14 +28,37 @@ double BatteryPack::Voltage_V(double current_A) const {
 
 void BatteryPack::Step(double current_A, double dt_s) {
   state_of_charge_ = std::max(state_of_charge_ - current_A * dt_s / (3600.0 * battery_.capacity_Ah), 0.0);
+  if (dt_s != decay_step_s_) {  // once per step length
+    decay_step_s_ = dt_s;
+    decay_ = std::exp(-dt_s / battery_.polarization_time_constant_s);
+  }
   const double settled_V = battery_.polarization_resistance_ohm * current_A;
-  polarization_V_ =
-      settled_V + (polarization_V_ - settled_V) * std::exp(-dt_s / battery_.polarization_time_constant_s);
+  polarization_V_ = settled_V + (polarization_V_ - settled_V) * decay_;
+}
+
+ElectricDrive::Motor ElectricDrive::MotorOf(const model::RotorSet& rotors) {
+  Motor motor;
+  motor.back_emf_V_per_rad_s = 60.0 / (2.0 * M_PI * rotors.electric.kv_rpm_per_V);
+  motor.current_A_s2 = rotors.torque_coefficient / motor.back_emf_V_per_rad_s;
+  motor.quadratic_V_s2 = rotors.electric.resistance_ohm * motor.current_A_s2;
+  motor.no_load_current_A = rotors.electric.no_load_current_A;
+  motor.no_load_drop_V = rotors.electric.resistance_ohm * motor.no_load_current_A;
+  return motor;
+}
+
+// The motor equation's steady speed: R k_m / k_e ω² + k_e ω + (R I₀ − u V) = 0, the positive root in a form
+// that does not cancel.
+double ElectricDrive::SteadySpeed_rad_s(const Motor& motor, double throttle, double voltage_V) {
+  const double drive_V = std::clamp(throttle, 0.0, 1.0) * voltage_V - motor.no_load_drop_V;
+  if (drive_V <= 0.0) return 0.0;
+  const double k_e = motor.back_emf_V_per_rad_s;
+  return 2.0 * drive_V / (k_e + std::sqrt(k_e * k_e + 4.0 * motor.quadratic_V_s2 * drive_V));
 }
 
 ElectricDrive::ElectricDrive(const model::RotorSet& rotors, const model::Battery& battery,
                              double state_of_charge, bool battery_sag, bool battery_scale)
     : rotors_(rotors),
+      motor_(MotorOf(rotors)),
       battery_(battery, state_of_charge),
       battery_sag_(battery_sag),
       use_battery_scale_(battery_scale) {
@@ -66,7 +74,8 @@ ElectricDrive::ElectricDrive(const model::RotorSet& rotors, const model::Battery
 
 void ElectricDrive::CalibrateOn(const model::RotorSet& rotors) {
   const double charged_V = battery_.charged_voltage_V();
-  const double full_speed_rad_s = SteadySpeed(rotors, 1.0, charged_V);
+  const Motor motor = MotorOf(rotors);
+  const double full_speed_rad_s = SteadySpeed_rad_s(motor, 1.0, charged_V);
   if (!(full_speed_rad_s > 0.0)) {
     throw std::invalid_argument("the motors do not turn at full throttle on a charged battery");
   }
@@ -76,7 +85,7 @@ void ElectricDrive::CalibrateOn(const model::RotorSet& rotors) {
     double numerator = 0.0, denominator = 0.0;
     for (int i = 0; i <= 100; ++i) {
       const double u = i / 100.0;
-      const double t = std::pow(SteadySpeed(rotors, u, charged_V) / full_speed_rad_s, 2);
+      const double t = std::pow(SteadySpeed_rad_s(motor, u, charged_V) / full_speed_rad_s, 2);
       numerator += (t - u) * (u * u - u);
       denominator += (u * u - u) * (u * u - u);
     }
@@ -85,12 +94,11 @@ void ElectricDrive::CalibrateOn(const model::RotorSet& rotors) {
 }
 
 double ElectricDrive::SteadySpeed_rad_s(double throttle, double voltage_V) const {
-  return SteadySpeed(rotors_, throttle, voltage_V);
+  return SteadySpeed_rad_s(motor_, throttle, voltage_V);
 }
 
 double ElectricDrive::MotorCurrent_A(double speed_rad_s) const {
-  return rotors_.torque_coefficient * speed_rad_s * speed_rad_s / BackEmf_V_per_rad_s(rotors_) +
-         rotors_.electric.no_load_current_A;
+  return motor_.current_A_s2 * speed_rad_s * speed_rad_s + motor_.no_load_current_A;
 }
 
 double ElectricDrive::ThrottleForThrust(double thrust_N) const {

@@ -58,6 +58,8 @@ class BatteryPack {
   model::Battery battery_;
   double state_of_charge_;
   double polarization_V_ = 0.0;
+  double decay_step_s_ = 0.0;  // the step the polarization's decay factor was computed for
+  double decay_ = 0.0;
 };
 
 class ElectricDrive {
@@ -99,7 +101,19 @@ class ElectricDrive {
   const BatteryPack& battery() const { return battery_; }
 
  private:
+  // the motor equation's constants, computed once: the step solves it for four rotors every millisecond
+  struct Motor {
+    double back_emf_V_per_rad_s;  // k_e = 60 / (2π Kv)
+    double quadratic_V_s2;        // R k_m / k_e: the resistive drop of the propeller's load current per ω²
+    double no_load_drop_V;        // R I₀
+    double current_A_s2;          // k_m / k_e: the load current per ω²
+    double no_load_current_A;     // I₀
+  };
+  static Motor MotorOf(const model::RotorSet& rotors);
+  static double SteadySpeed_rad_s(const Motor& motor, double throttle, double voltage_V);
+
   model::RotorSet rotors_;
+  Motor motor_;
   BatteryPack battery_;
   bool battery_sag_;
   bool use_battery_scale_;

@@ -1,20 +1,17 @@
 #pragma once
-// Draws that repeat on any standard library: std::normal_distribution's algorithm is the library's own, and
-// a seeded run must give the same numbers wherever it runs. The engine, std::mt19937_64, is specified
-// exactly.
+// Draws that repeat on any standard library: the engine, std::mt19937_64, is specified exactly, and the
+// normal draws are Boost's ziggurat (sensors/gaussian.h), not std::normal_distribution, whose algorithm is
+// the library's own.
 
 #include <cmath>
 #include <cstdint>
 #include <random>
 
+#include "sensors/gaussian.h"
+
 namespace iapsim::physics {
 
-/// A standard normal draw: Box-Muller on the engine's raw bits.
-inline double StandardNormal(std::mt19937_64& random) {
-  const double u1 = (static_cast<double>(random() >> 11) + 1.0) * 0x1.0p-53;  // (0, 1]
-  const double u2 = static_cast<double>(random() >> 11) * 0x1.0p-53;          // [0, 1)
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
-}
+using sensors::StandardNormal;
 
 /// A uniform draw in [−1, 1).
 inline double SymmetricUniform(std::mt19937_64& random) {

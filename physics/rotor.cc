@@ -19,10 +19,6 @@ double WakeMomentumFlux_N(double thrust_N, double distance_m, double radius_m) {
   return 0.5 * thrust_N * (1.0 + distance_m / std::hypot(distance_m, radius_m));
 }
 
-double WakeRadius_m(double distance_m, double radius_m) {
-  return radius_m / std::sqrt(2.0) + kWakeSpreadRate * distance_m;
-}
-
 const std::array<Eigen::Vector2d, kWakeCells>& WakeCells() {
   static const std::array<Eigen::Vector2d, kWakeCells> cells = [] {
     std::array<Eigen::Vector2d, kWakeCells> c;

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cmath>
 
 #include "model/vehicle.h"
 
@@ -38,8 +39,10 @@ double WakeMomentumFlux_N(double thrust_N, double distance_m, double radius_m);
 /// below the disk: R/√2 (the contraction is taken as immediate: it is 80 % done one radius below the disk)
 /// plus 0.08 d (0.094 d of the half-velocity radius, times √(1 / (2 ln 2)) for a top hat of the same
 /// momentum flux).
-double WakeRadius_m(double distance_m, double radius_m);
 constexpr double kWakeSpreadRate = 0.094 / 1.1774100225154747;  // √(2 ln 2)
+inline double WakeRadius_m(double distance_m, double radius_m) {  // inline: the downwash's culling calls it
+  return radius_m * M_SQRT1_2 + kWakeSpreadRate * distance_m;     // for every rotor and body, every step
+}
 
 /// Cells of equal area tiling the unit disk, by their centres: one at the centre, a ring of 6 and one of
 /// 12, at the radii that halve each ring's area. The wake is sampled with one ray per cell.

@@ -264,18 +264,19 @@ void Simulation::ApplyDownwash(const VehicleSim& vehicle, int s) {
   const BodyState& state = world_.body(own_body);
   const double reach_m = 20.0 * radius_m;
   const double far_radius_m = WakeRadius_m(reach_m, radius_m);
-  const Eigen::Vector3d axis_W = state.q_WB * Eigen::Vector3d::UnitZ();
+  const Eigen::Matrix3d R_WB = state.q_WB.toRotationMatrix();  // once for the four hubs
+  const Eigen::Vector3d axis_W = R_WB.col(2);
   const Eigen::Vector3d air_W = vehicle.output.wind_W_mps - state.v_WBcom_W;
   const double share = 0.5 * air_.downwash_drag_coefficient / kWakeCells;
+  const double per_disk_load = 1.0 / (2.0 * air_.density_kgpm3 * M_PI * radius_m * radius_m);  // v_h² / T
   for (int j = 0; j < sim.rotors->count(); ++j) {
     const double speed = sim.rotors->speeds_rad_s()[j];
     const double thrust_N =
         rotors.thrust_coefficient * speed * speed * vehicle.output.sub_aircraft[s].thrust_ratio[j];
     if (!(thrust_N > 0.0)) continue;
-    const double far_speed_mps =
-        2.0 * std::sqrt(thrust_N / (2.0 * air_.density_kgpm3 * M_PI * radius_m * radius_m));
+    const double far_speed_mps = 2.0 * std::sqrt(thrust_N * per_disk_load);
     const Eigen::Vector3d along_W = (far_speed_mps * axis_W + air_W).normalized();
-    const Eigen::Vector3d hub_W = state.p_WB_m + state.q_WB * rotors.hub_S_m[j];
+    const Eigen::Vector3d hub_W = state.p_WB_m + R_WB * rotors.hub_S_m[j];
     wake_candidates_.clear();
     for (const WakeTarget& target : wake_targets_) {
       if (target.body == own_body) continue;
@@ -291,7 +292,7 @@ void Simulation::ApplyDownwash(const VehicleSim& vehicle, int s) {
     }
     if (wake_candidates_.empty()) continue;
     // the cells' axes: the sub-aircraft's x axis, across the wake
-    Eigen::Vector3d e1_W = state.q_WB * Eigen::Vector3d::UnitX();
+    Eigen::Vector3d e1_W = R_WB.col(0);
     e1_W = (e1_W - e1_W.dot(along_W) * along_W).normalized();
     const Eigen::Vector3d e2_W = along_W.cross(e1_W);
     for (const Eigen::Vector2d& cell : WakeCells()) {

@@ -104,9 +104,12 @@ void DrydenTurbulence::Update(Discrete* filter, int order, double time_constant_
 Eigen::Vector3d DrydenTurbulence::Step(const DrydenScales& s, double airspeed_mps, double dt_s) {
   const double V = airspeed_mps;
   if (!started_) {  // the stationary state: no start-up transient
-    state_u_ = Eigen::Vector2d(Normal(), 0.0);
-    state_v_ = Eigen::Vector2d(Normal(), Normal());
-    state_w_ = Eigen::Vector2d(Normal(), Normal());
+    // one draw per statement: the order of a constructor's arguments is unspecified, and a seeded run
+    // must repeat to the bit with any compiler
+    for (Eigen::Vector2d* state : {&state_u_, &state_v_, &state_w_}) {
+      (*state)(0) = Normal();
+      (*state)(1) = state == &state_u_ ? 0.0 : Normal();
+    }
     started_ = true;
   } else {
     Update(&filter_u_, 1, s.length_u_m / V, dt_s);
@@ -114,7 +117,9 @@ Eigen::Vector3d DrydenTurbulence::Step(const DrydenScales& s, double airspeed_mp
     Update(&filter_w_, 2, s.length_w_m / V, dt_s);
     for (auto [state, filter] : {std::pair{&state_u_, &filter_u_}, std::pair{&state_v_, &filter_v_},
                                  std::pair{&state_w_, &filter_w_}}) {
-      const Eigen::Vector2d noise(Normal(), Normal());
+      Eigen::Vector2d noise;
+      noise(0) = Normal();
+      noise(1) = Normal();
       *state = filter->transition * *state + filter->noise_factor * noise;
     }
   }

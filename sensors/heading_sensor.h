@@ -25,7 +25,6 @@ class HeadingSensor {
  private:
   HeadingSensorConfig config_;
   std::mt19937_64 random_;
-  std::normal_distribution<double> normal_;
 };
 
 }  // namespace iapsim::sensors

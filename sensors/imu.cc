@@ -34,23 +34,21 @@ ImuSample IdealImuSample(const BodyKinematics& truth, const Eigen::Vector3d& p_B
 ImuModel::ImuModel(const ImuConfig& config, uint64_t seed)
     : config_(config), random_(seed + config.seed_offset) {
   config_.q_BI.normalize();
-  gyroscope_bias_radps_ = config_.initial_gyroscope_bias_radps +
-                          config_.initial_gyroscope_bias_sigma_radps * Gaussian3(random_, normal_);
+  gyroscope_bias_radps_ =
+      config_.initial_gyroscope_bias_radps + config_.initial_gyroscope_bias_sigma_radps * Gaussian3(random_);
   accelerometer_bias_mps2_ = config_.initial_accelerometer_bias_mps2 +
-                             config_.initial_accelerometer_bias_sigma_mps2 * Gaussian3(random_, normal_);
+                             config_.initial_accelerometer_bias_sigma_mps2 * Gaussian3(random_);
 }
 
 ImuSample ImuModel::Sample(const BodyKinematics& truth, double dt_s) {
   if (!(dt_s > 0.0)) throw std::invalid_argument("ImuModel::Sample: dt_s must be positive");
   const ImuNoise& n = config_.noise;
   const double sqrt_dt = std::sqrt(dt_s);
-  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_dt * Gaussian3(random_, normal_);
-  accelerometer_bias_mps2_ += n.accelerometer_random_walk * sqrt_dt * Gaussian3(random_, normal_);
+  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_dt * Gaussian3(random_);
+  accelerometer_bias_mps2_ += n.accelerometer_random_walk * sqrt_dt * Gaussian3(random_);
   ImuSample sample = IdealImuSample(truth, config_.p_BI_m, config_.q_BI, config_.gravity_mps2);
-  sample.w_I_radps +=
-      gyroscope_bias_radps_ + n.gyroscope_noise_density / sqrt_dt * Gaussian3(random_, normal_);
-  sample.f_I_mps2 +=
-      accelerometer_bias_mps2_ + n.accelerometer_noise_density / sqrt_dt * Gaussian3(random_, normal_);
+  sample.w_I_radps += gyroscope_bias_radps_ + n.gyroscope_noise_density / sqrt_dt * Gaussian3(random_);
+  sample.f_I_mps2 += accelerometer_bias_mps2_ + n.accelerometer_noise_density / sqrt_dt * Gaussian3(random_);
   return sample;
 }
 
@@ -58,9 +56,9 @@ Eigen::Vector3d ImuModel::SampleGyroscope(const Eigen::Vector3d& w_WB_B_radps, d
   if (!(dt_s > 0.0)) throw std::invalid_argument("ImuModel::SampleGyroscope: dt_s must be positive");
   const ImuNoise& n = config_.noise;
   const double sqrt_dt = std::sqrt(dt_s);
-  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_dt * Gaussian3(random_, normal_);
+  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_dt * Gaussian3(random_);
   return config_.q_BI.conjugate() * w_WB_B_radps + gyroscope_bias_radps_ +
-         n.gyroscope_noise_density / sqrt_dt * Gaussian3(random_, normal_);
+         n.gyroscope_noise_density / sqrt_dt * Gaussian3(random_);
 }
 
 }  // namespace iapsim::sensors

@@ -80,7 +80,6 @@ class ImuModel {
  private:
   ImuConfig config_;
   std::mt19937_64 random_;
-  std::normal_distribution<double> normal_;
   Eigen::Vector3d gyroscope_bias_radps_;
   Eigen::Vector3d accelerometer_bias_mps2_;
 };

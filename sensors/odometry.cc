@@ -14,7 +14,7 @@ void OdometryModel::Correlate(Eigen::Vector3d* error, double sigma, double dt_s)
   // whose stationary σ it keeps at any Δt; τ = 0 gives φ = 0, white noise of σ
   const double tau_s = config_.noise.correlation_time_s;
   const double phi = tau_s > 0.0 ? std::exp(-dt_s / tau_s) : 0.0;
-  *error = phi * *error + sigma * std::sqrt(1.0 - phi * phi) * Gaussian3(random_, normal_);
+  *error = phi * *error + sigma * std::sqrt(1.0 - phi * phi) * Gaussian3(random_);
 }
 
 OdometryState OdometryModel::Sample(const OdometryState& truth, double dt_s) {
@@ -22,13 +22,13 @@ OdometryState OdometryModel::Sample(const OdometryState& truth, double dt_s) {
   const OdometryNoise& n = config_.noise;
   if (!started_) {  // stationary Gauss–Markov errors, no drift yet
     started_ = true;
-    position_error_W_m_ = n.position_sigma_m * Gaussian3(random_, normal_);
-    attitude_error_B_rad_ = n.attitude_sigma_rad * Gaussian3(random_, normal_);
-    velocity_error_B_mps_ = n.velocity_sigma_mps * Gaussian3(random_, normal_);
+    position_error_W_m_ = n.position_sigma_m * Gaussian3(random_);
+    attitude_error_B_rad_ = n.attitude_sigma_rad * Gaussian3(random_);
+    velocity_error_B_mps_ = n.velocity_sigma_mps * Gaussian3(random_);
   } else {
     const double sqrt_dt = std::sqrt(dt_s);
-    drift_W_m_ += n.position_drift_m_per_sqrt_s * sqrt_dt * Gaussian3(random_, normal_);
-    yaw_drift_rad_ += n.yaw_drift_rad_per_sqrt_s * sqrt_dt * normal_(random_);
+    drift_W_m_ += n.position_drift_m_per_sqrt_s * sqrt_dt * Gaussian3(random_);
+    yaw_drift_rad_ += n.yaw_drift_rad_per_sqrt_s * sqrt_dt * StandardNormal(random_);
     Correlate(&position_error_W_m_, n.position_sigma_m, dt_s);
     Correlate(&attitude_error_B_rad_, n.attitude_sigma_rad, dt_s);
     Correlate(&velocity_error_B_mps_, n.velocity_sigma_mps, dt_s);
@@ -44,7 +44,7 @@ OdometryState OdometryModel::Sample(const OdometryState& truth, double dt_s) {
           .normalized();
   estimate.v_WB_B_mps = truth.v_WB_B_mps + velocity_error_B_mps_;
   estimate.w_WB_B_radps =
-      truth.w_WB_B_radps + n.angular_rate_noise_density / std::sqrt(dt_s) * Gaussian3(random_, normal_);
+      truth.w_WB_B_radps + n.angular_rate_noise_density / std::sqrt(dt_s) * Gaussian3(random_);
   return estimate;
 }
 

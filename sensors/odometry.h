@@ -60,7 +60,6 @@ class OdometryModel {
 
   OdometryConfig config_;
   std::mt19937_64 random_;
-  std::normal_distribution<double> normal_;
   bool started_ = false;
   Eigen::Vector3d drift_W_m_ = Eigen::Vector3d::Zero();
   double yaw_drift_rad_ = 0.0;

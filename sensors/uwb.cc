@@ -1,5 +1,7 @@
 #include "sensors/uwb.h"
 
+#include "sensors/gaussian.h"
+
 namespace iapsim::sensors {
 
 UwbModel::UwbModel(const UwbNoise& noise, uint64_t seed) : noise_(noise), random_(seed) {}
@@ -11,7 +13,7 @@ UwbRange UwbModel::Measure(const Eigen::Vector3d& p_WA_m, const Eigen::Vector3d&
   const double nlos_draw = uniform_(random_);
   const double outlier_draw = uniform_(random_);
   const double outlier_value = uniform_(random_);
-  const double gaussian = normal_(random_);
+  const double gaussian = StandardNormal(random_);
 
   UwbRange range;
   range.received = dropout_draw >= noise_.dropout_probability;

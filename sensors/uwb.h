@@ -56,7 +56,6 @@ class UwbModel {
   UwbNoise noise_;
   std::mt19937_64 random_;
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
-  std::normal_distribution<double> normal_;
 };
 
 }  // namespace iapsim::sensors

@@ -300,7 +300,7 @@ int Bench(const BenchArgs& args) {
   const bool all = args.what == "all";
   if (args.what == "bus" || all) status |= BenchBus(&report);
   if (all) std::printf("\n");
-  if (args.what == "physics" || all) status |= BenchPhysics(args.vehicle, &report);
+  if (args.what == "physics" || all) status |= BenchPhysics(args.vehicle, args.scenario, &report);
   if (all) std::printf("\n");
   if (args.what == "render" || all) status |= BenchRender(args.scene, args.vehicle, &report);
   if (all) std::printf("\n");

@@ -84,8 +84,9 @@ int Urdf(const std::string& vehicle, const std::string& output);
 int BenchBus(nlohmann::json* report);
 
 /// In-process physics steps/s for the vehicle (in the air, on the ground) and for 2..8 sub-aircraft, with
-/// a bare Bullet multibody of the same size as the baseline of each.
-int BenchPhysics(const std::string& vehicle_path, nlohmann::json* report);
+/// a bare Bullet multibody of the same size as the baseline of each; and the physics of `scenario_path` in
+/// its realistic profile against its ideal one (issue 19's cost budget).
+int BenchPhysics(const std::string& vehicle_path, const std::string& scenario_path, nlohmann::json* report);
 
 /// Images/s at 640x480 on the CPU (OSMesa) in `scene_path` with the vehicle flying through it: one camera and
 /// three stereo pairs (six images a frame), render only and render + PNG encode, with frame latencies.

@@ -6,20 +6,19 @@
 #include <memory>
 #include <stdexcept>
 
-#include "control/iap_controller.h"
 #include "model/urdf.h"
 #include "physics/drive.h"
+#include "tools/held_hover.h"
 
 namespace iapsim::tools {
 namespace {
 
-constexpr double kStep_s = 0.001;    // physics, as every flight of the paper
-constexpr int kStepsPerControl = 5;  // the IAP controller at 200 Hz
+constexpr double kStep_s = 0.001;  // physics, as every flight of the paper
 constexpr double kGravity_mps2 = 9.81;
 constexpr double kModelStep_s = 1e-5;   // the linear models' integration step: far below every time constant
 constexpr double kHoverDepth_m = -5.0;  // NED: 5 m up, no ground in these scenes
 
-std::unique_ptr<physics::Simulation> MakeSimulation(const model::Vehicle& vehicle, Actuation actuation) {
+physics::SimulationConfig SimulationOf(const model::Vehicle& vehicle, Actuation actuation) {
   physics::SimulationConfig config;
   config.step_s = kStep_s;
   config.world.ground = false;
@@ -35,7 +34,11 @@ std::unique_ptr<physics::Simulation> MakeSimulation(const model::Vehicle& vehicl
   spec.description = model::ParseUrdf(model::GenerateUrdf(vehicle), vehicle.name + ".urdf");
   spec.p_WP_m = Eigen::Vector3d(0.0, 0.0, kHoverDepth_m);
   config.vehicles.push_back(spec);
-  return std::make_unique<physics::Simulation>(config);
+  return config;
+}
+
+std::unique_ptr<physics::Simulation> MakeSimulation(const model::Vehicle& vehicle, Actuation actuation) {
+  return std::make_unique<physics::Simulation>(SimulationOf(vehicle, actuation));
 }
 
 const physics::BodyState& SubAircraftBody(const physics::Simulation& sim) {
@@ -94,40 +97,18 @@ namespace {
 std::vector<double> HoverUnderStepForce(const model::Vehicle& vehicle, const control::TrackerGains& gains,
                                         int axis, double force_N, Actuation actuation, double settle_s,
                                         double duration_s) {
-  std::unique_ptr<physics::Simulation> sim = MakeSimulation(vehicle, actuation);
-  control::IapControllerConfig config;
-  config.gains = gains;
-  config.gravity_mps2 = kGravity_mps2;
-  control::IapController controller(vehicle, config);
-  control::PoseReference reference;
-  reference.p_WP_m = Eigen::Vector3d(0.0, 0.0, kHoverDepth_m);
-  const int platform = sim->output(0).platform_body;
+  HeldHover hover(SimulationOf(vehicle, actuation), gains);
+  physics::Simulation& sim = hover.simulation();
   std::vector<double> positions_m;
-  while (sim->time_s() < settle_s + duration_s) {
-    const physics::BodyState& body = sim->world().body(platform);
-    if (sim->step_count() % kStepsPerControl == 0) {
-      control::PlatformState state;
-      state.p_WP_m = body.p_WB_m;
-      state.q_WP = body.q_WB;
-      state.v_WP_P_mps = body.q_WB.conjugate() * body.v_WB_W;
-      state.w_WP_P_radps = body.q_WB.conjugate() * body.w_WB_W;
-      if (!controller.Update(reference, state, control::Vector6d::Zero(), kStepsPerControl * kStep_s)) {
-        throw std::runtime_error("the IAP controller rejected a hover update");
-      }
-      for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) {
-        physics::SubAircraftSetpoint setpoint;
-        setpoint.thrust_N = controller.output().sub_aircraft[i].thrust_N;
-        setpoint.q_WS = controller.output().sub_aircraft[i].q_WS;
-        sim->SetCommand(0, static_cast<int>(i), setpoint);
-      }
-    }
-    if (sim->time_s() >= settle_s) {
-      positions_m.push_back(body.p_WB_m[axis]);
+  while (sim.time_s() < settle_s + duration_s) {
+    hover.Control();
+    if (sim.time_s() >= settle_s) {
+      positions_m.push_back(hover.platform().p_WB_m[axis]);
       Eigen::Vector3d force_W_N = Eigen::Vector3d::Zero();
       force_W_N[axis] = force_N;
-      sim->mutable_world().AddForce_W(platform, force_W_N);
+      sim.mutable_world().AddForce_W(sim.output(0).platform_body, force_W_N);
     }
-    sim->Step();
+    sim.Step();
   }
   return positions_m;
 }

@@ -109,8 +109,10 @@ int main(int argc, char** argv) {
                         "physics, render, fidelity: the vehicle to measure (default the three-star)");
   bench_cmd->add_option("--scene", bench.scene, "render: the scene (default configs/scenes/buildings.yaml)");
   bench_cmd
-      ->add_option("--scenario", bench.scenario,
-                   "record: the lockstep scenario (default configs/regression/three_star_spiral.yaml)")
+      ->add_option(
+          "--scenario", bench.scenario,
+          "record: the lockstep scenario; physics: the scenario whose ideal and realistic profiles are "
+          "compared (default configs/regression/three_star_spiral.yaml)")
       ->check(CLI::ExistingFile);
   bench_cmd->add_option("--repeat", bench.repeats, "record: runs of each variant (default 3)")
       ->check(CLI::Range(1, 100));

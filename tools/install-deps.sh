@@ -8,7 +8,7 @@ packages=(
   # toolchain
   cmake ninja-build g++ make pkg-config
   # core libraries
-  libeigen3-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
+  libeigen3-dev libboost-dev libyaml-cpp-dev libcli11-dev libspdlog-dev nlohmann-json3-dev
   # bus: ZeroMQ + ROS1 wire format, bag files, message definitions for gencpp
   libzmq3-dev cppzmq-dev librosbag-storage-dev libbz2-dev pluginlib-dev libclass-loader-dev librcpputils-dev librcutils-dev
   libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev libnav-msgs-dev libros-rosgraph-msgs-dev

@@ -50,6 +50,10 @@ struct Flight {
   std::string scenario;
   std::vector<Bound> bounds;            // one run, ideal
   std::vector<Bound> realistic_bounds;  // one run, fidelity: realistic
+  // the realistic run's seed (its model-mismatch draw, turbulence and noise); 0: the scenario's. A contact
+  // flight names a draw that does its task, so that a change which breaks the task in the realistic
+  // profile is caught; the Monte Carlo success rate says how many draws do
+  uint64_t realistic_seed = 0;
   // --monte-carlo: bounds on the draws' 95th (max) and 5th (min) percentiles, and the least fraction of
   // draws that meet the flight's own contact bounds (that did the task)
   std::vector<Bound> monte_carlo_bounds;
@@ -145,6 +149,7 @@ Suite ReadSuite(const std::string& suite_dir) {
     flight.bounds = ReadBounds(map);
     bridge::YamlMap realistic = map.Map("realistic");
     flight.realistic_bounds = ReadBounds(realistic);
+    realistic.Optional("seed", &flight.realistic_seed);
     realistic.Finish();
     bridge::YamlMap monte_carlo = map.Map("monte_carlo");
     flight.monte_carlo_bounds = ReadBounds(monte_carlo);
@@ -284,6 +289,10 @@ int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::strin
       std::vector<std::string> profile_overrides = overrides;
       profile_overrides.insert(profile_overrides.begin(),
                                "fidelity=" + profile);  // --set may still change it
+      if (!ideal && flight.realistic_seed != 0) {
+        profile_overrides.insert(profile_overrides.begin() + 1,
+                                 "seed=" + std::to_string(flight.realistic_seed));
+      }
       const FlightRun run = Fly(flight, profile_overrides, out_dir / name, false);
       nlohmann::json& entry = (*report)[name];
       entry["run_dir"] = run.run_dir;
