@@ -11,6 +11,7 @@
 #include "bridge/config.h"
 #include "model/urdf.h"
 #include "model/vehicle.h"
+#include "tests/support/test_folder.h"
 
 namespace iapsim::model {
 namespace {
@@ -19,11 +20,8 @@ namespace fs = std::filesystem;
 
 // A file in this test's own folder (so a YAML file can name it relative to itself).
 std::string WriteFile(const std::string& name, const std::string& text) {
-  const fs::path folder = fs::path(::testing::TempDir()) / ("mesh_test-" + std::to_string(getpid()));
-  fs::create_directories(folder);
-  const std::string path = (folder / name).string();
-  std::ofstream(path) << text;
-  return path;
+  static const test_support::TestFolder folder("mesh_test");
+  return folder.Write(name, text);
 }
 
 // A unit cube centred on the origin: quads with per-corner texture coordinates and normals, so the

@@ -10,6 +10,7 @@
 
 #include "bridge/config.h"
 #include "model/vehicle.h"
+#include "tests/support/test_folder.h"
 
 namespace iapsim::model {
 namespace {
@@ -23,9 +24,8 @@ std::string VehiclePath(const std::string& name) {
 std::string F450() { return std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/parts/f450.yaml"; }
 
 std::string WriteTemp(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + "/" + name + "-" + std::to_string(getpid()) + ".yaml";
-  std::ofstream(path) << text;
-  return path;
+  static const test_support::TestFolder folder("urdf_test");
+  return folder.Write(name + ".yaml", text);
 }
 
 TEST(Vehicle, EveryShippedConfigurationLoadsAndRoundTripsThroughUrdf) {

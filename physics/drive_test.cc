@@ -15,6 +15,7 @@
 #include "model/vehicle.h"
 #include "physics/physics_config.h"
 #include "physics/simulation.h"
+#include "tests/support/test_folder.h"
 
 namespace iapsim::physics {
 namespace {
@@ -231,7 +232,8 @@ TEST(ElectricDrive, IsReadFromThePhysicsParamsAndNeedsTheVehicleFilesParts) {
     EXPECT_THROW(ReadPhysicsConfig(wrong, "test.yaml", 0.001), bridge::ConfigError);
   }
   // a vehicle without the motors' electrics
-  const std::string path = testing::TempDir() + "/no_electrics.yaml";
+  const test_support::TestFolder folder("drive_test");
+  const std::string path = (folder.path() / "no_electrics.yaml").string();
   {
     std::FILE* file = std::fopen(path.c_str(), "w");
     std::fprintf(

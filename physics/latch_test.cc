@@ -13,6 +13,7 @@
 #include "physics/multibody_world.h"
 #include "physics/physics_config.h"
 #include "physics/simulation.h"
+#include "tests/support/test_folder.h"
 
 namespace iapsim::physics {
 namespace {
@@ -397,9 +398,8 @@ TEST(MultibodyWorldLatch, HoldsALinkToAnObjectAndRefusesWhatItCannotHold) {
 }
 
 std::string WriteScenario(const std::string& text) {
-  const std::string path = ::testing::TempDir() + "/latch-" + std::to_string(getpid()) + ".yaml";
-  std::ofstream(path) << text;
-  return path;
+  static const test_support::TestFolder folder("latch_test");
+  return folder.Write("latch.yaml", text);
 }
 
 PhysicsConfig ReadParams(const std::string& latches) {
@@ -472,7 +472,7 @@ TEST(LatchConfig, ReadsALatchAndNamesTheKeyOfEveryMistake) {
       ADD_FAILURE() << "accepted";
     } catch (const bridge::ConfigError& e) {
       EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("latch-"), std::string::npos) << e.what();  // the file
+      EXPECT_NE(std::string(e.what()).find("latch.yaml"), std::string::npos) << e.what();  // the file
     }
   }
 }

@@ -14,6 +14,7 @@
 #include "physics/multibody_world.h"
 #include "physics/physics_config.h"
 #include "physics/simulation.h"
+#include "tests/support/test_folder.h"
 
 namespace iapsim::physics {
 namespace {
@@ -24,11 +25,8 @@ constexpr double kStep_s = 0.001;
 constexpr double kGravity_mps2 = 9.81;
 
 std::string WriteFile(const std::string& name, const std::string& text) {
-  const fs::path folder = fs::path(::testing::TempDir()) / ("physics_mesh_test-" + std::to_string(getpid()));
-  fs::create_directories(folder);
-  const std::string path = (folder / name).string();
-  std::ofstream(path) << text;
-  return path;
+  static const test_support::TestFolder folder("physics_mesh_test");
+  return folder.Write(name, text);
 }
 
 // the shipped funnel (tools/generate_funnel_mesh.py): axis +z from the mouth's centre

@@ -18,6 +18,7 @@
 #include "physics/physics_config.h"
 #include "physics/simulation.h"
 #include "physics/wind.h"
+#include "tests/support/test_folder.h"
 
 namespace iapsim::physics {
 namespace {
@@ -674,7 +675,8 @@ TEST(Joints, FrictionAndLimitsAreInternalToTheVehicle) {
 }
 
 TEST(Joints, AreReadFromTheVehicleFileAndWrittenToTheUrdf) {
-  const std::string path = testing::TempDir() + "/resisting.yaml";
+  const test_support::TestFolder folder("world_test");
+  const std::string path = (folder.path() / "resisting.yaml").string();
   {
     std::ofstream file(path);
     file << "name: resisting\nplatform: {mass_kg: 1.1, inertia_kgm2: [0.02, 0.02, 0.04], collision: [{box: "
