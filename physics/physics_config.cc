@@ -285,9 +285,37 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
   params.SetResolved("vehicles", resolved);
 
   std::string sensing = "truth";
-  params.OptionalChoice("flight_controller_sensing", &sensing, {"truth", "gyro"});
-  config.simulation.flight_controller_sensing =
-      sensing == "gyro" ? FlightControllerSensing::kGyro : FlightControllerSensing::kTruth;
+  params.OptionalChoice("flight_controller_sensing", &sensing, {"truth", "gyro", "estimate"});
+  config.simulation.flight_controller_sensing = sensing == "gyro"       ? FlightControllerSensing::kGyro
+                                                : sensing == "estimate" ? FlightControllerSensing::kEstimate
+                                                                        : FlightControllerSensing::kTruth;
+  if (params.Has("flight_controller_estimate")) {
+    if (sensing != "estimate") {
+      params.Fail("flight_controller_estimate", "is read only with flight_controller_sensing: estimate");
+    }
+    YamlMap estimate = params.Map("flight_controller_estimate");
+    FlightControllerEstimate& out = config.simulation.flight_controller_estimate;
+    sensors::ComplementaryFilterGains& gains = out.gains;
+    for (const auto& [key, value] :
+         {std::pair{"accelerometer_weight_per_s", &gains.accelerometer_weight_per_s},
+          {"heading_weight_per_s", &gains.heading_weight_per_s},
+          {"gyroscope_bias_weight_per_s", &gains.gyroscope_bias_weight_per_s}}) {
+      estimate.OptionalInRange(key, value, 0.0, 100.0);
+    }
+    estimate.Optional("calibrated", &out.calibrated);
+    estimate.OptionalInRange("velocity_sigma_mps", &out.velocity_sigma_mps, 0.0, 10.0);
+    double heading_sigma_deg = out.heading_sigma_rad * 180.0 / M_PI;
+    estimate.OptionalInRange("heading_sigma_deg", &heading_sigma_deg, 0.0, 180.0);
+    out.heading_sigma_rad = heading_sigma_deg * M_PI / 180.0;
+    for (const auto& [key, value] :
+         {std::pair{"velocity_rate_hz", &out.velocity_rate_hz}, {"heading_rate_hz", &out.heading_rate_hz}}) {
+      estimate.Optional(key, value);
+      if (!(*value > 0.0 && *value <= 1.0 / config.simulation.step_s)) {
+        estimate.Fail(key, "expected a rate in (0, the physics rate] Hz");
+      }
+    }
+    estimate.Finish();
+  }
 
   if (params.Has("actuation")) {
     YamlMap actuation = params.Map("actuation");

@@ -5,15 +5,28 @@
 #include <stdexcept>
 
 #include "physics/random.h"
+#include "sensors/attitude_estimator.h"
 #include "sensors/imu.h"
 
 namespace iapsim::physics {
+namespace {
+
+// a rate's period in whole physics steps, at least one
+int64_t EveryStepsAt(double rate_hz, double step_s) {
+  if (!(rate_hz > 0.0)) throw std::invalid_argument("a flight controller's aiding rate must be positive");
+  return std::max<int64_t>(1, std::llround(1.0 / (rate_hz * step_s)));
+}
+
+}  // namespace
 
 Simulation::Simulation(const SimulationConfig& config)
     : world_(config.world, config.step_s),
       gravity_W_(0.0, 0.0, config.world.gravity_mps2),
       air_(config.air),
-      ground_z_m_(config.world.ground ? config.world.ground_z_m : 0.0) {
+      ground_z_m_(config.world.ground ? config.world.ground_z_m : 0.0),
+      estimate_(config.flight_controller_estimate),
+      velocity_every_steps_(EveryStepsAt(config.flight_controller_estimate.velocity_rate_hz, config.step_s)),
+      heading_every_steps_(EveryStepsAt(config.flight_controller_estimate.heading_rate_hz, config.step_s)) {
   vehicle_of_body_.assign(world_.body_count(), -1);
   for (const auto& spec : config.vehicles) {
     for (const auto& other : vehicles_) {
@@ -70,7 +83,7 @@ Simulation::Simulation(const SimulationConfig& config)
                                       ": the actuation model: " + e.what());
         }
       }
-      if (config.flight_controller_sensing == FlightControllerSensing::kGyro) {
+      if (config.flight_controller_sensing != FlightControllerSensing::kTruth) {
         const model::FlightControllerImu& noise = sub.flight_controller.imu;
         sensors::ImuConfig imu;
         imu.noise = {noise.gyroscope_noise_density, noise.gyroscope_random_walk,
@@ -83,6 +96,11 @@ Simulation::Simulation(const SimulationConfig& config)
             std::make_unique<sensors::ImuModel>(imu, StreamSeed(config.seed, vehicles_.size() * 64 + i + 33));
         try {
           s.gyro = std::make_unique<GyroFilter>(sub.flight_controller, config.step_s);
+          if (config.flight_controller_sensing == FlightControllerSensing::kEstimate) {
+            s.attitude = std::make_unique<sensors::ComplementaryAttitudeFilter>(
+                config.flight_controller_estimate.gains, config.world.gravity_mps2);
+            s.aiding_random.seed(StreamSeed(config.seed, vehicles_.size() * 64 + i + 17));
+          }
         } catch (const std::invalid_argument& e) {
           throw std::invalid_argument("vehicle '" + spec.name + "', " + sub.name +
                                       ": the flight controller: " + e.what());
@@ -338,14 +356,11 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
     out.thrust_W_N = state.q_WB * force_S;
     out.torque_S_Nm = torque_S;
     RotorVector thrusts, speeds;
-    Eigen::Vector3d w_WS_S = state.q_WB.conjugate() * state.w_WB_W;
-    Eigen::Vector3d alpha_WS_S = Eigen::Vector3d::Zero();  // no D term on the truth
-    if (sim.imu) {  // the IMU mounted level at the sub-aircraft's origin: I = S
-      sim.gyro->Update(sim.imu->SampleGyroscope(w_WS_S, dt));
-      w_WS_S = sim.gyro->rate_S_radps();
-      alpha_WS_S = sim.gyro->acceleration_S_radps2();
-    }
-    out.saturated = sim.controller->Update(sim.setpoint, state.q_WB, w_WS_S, alpha_WS_S, dt, &thrusts);
+    Eigen::Quaterniond q_WS;
+    Eigen::Vector3d w_WS_S, alpha_WS_S;
+    SenseRotation(sim, state, &q_WS, &w_WS_S, &alpha_WS_S);
+    out.q_WS_flight_controller = q_WS;
+    out.saturated = sim.controller->Update(sim.setpoint, q_WS, w_WS_S, alpha_WS_S, dt, &thrusts);
     if (sim.drive) {
       sim.drive->Step(thrusts, dt, sim.rotors.get());
       out.throttle = sim.drive->throttle();
@@ -366,6 +381,60 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
   } else {
     world_.AddTorque_W(body, torque_W);
   }
+}
+
+void Simulation::SenseRotation(SubAircraftSim& sim, const BodyState& state, Eigen::Quaterniond* q_WS,
+                               Eigen::Vector3d* w_WS_S_radps, Eigen::Vector3d* alpha_WS_S_radps2) {
+  const double dt = world_.step_s();
+  const Eigen::Quaterniond q_SW = state.q_WB.conjugate();
+  *q_WS = state.q_WB;
+  *w_WS_S_radps = q_SW * state.w_WB_W;
+  alpha_WS_S_radps2->setZero();  // no D term on the truth
+  if (!sim.imu) return;
+  // the IMU mounted level at the sub-aircraft's origin: I = S
+  Eigen::Vector3d w_I_radps;
+  if (sim.attitude) {
+    sensors::BodyKinematics truth;
+    truth.q_WB = state.q_WB;
+    truth.w_WB_B_radps = *w_WS_S_radps;
+    truth.alpha_WB_B_radps2 = q_SW * state.alpha_WB_W;
+    truth.a_WB_W_mps2 = state.a_WB_W;
+    const sensors::ImuSample sample = sim.imu->Sample(truth, dt);
+    w_I_radps = sample.w_I_radps;
+    const FlightControllerEstimate& estimate = estimate_;
+    const int64_t k = step_count();
+    // a heading, or the mean of a second of them
+    const auto yaw_rad = [&](double count) {
+      return sensors::RollPitchYaw_rad(state.q_WB).z() +
+             estimate.heading_sigma_rad / std::sqrt(count) * sensors::StandardNormal(sim.aiding_random);
+    };
+    if (!sim.attitude->initialized()) {  // aligned on the ground (FlightControllerEstimate)
+      Eigen::Vector3d gyroscope_bias_S_radps = Eigen::Vector3d::Zero();
+      if (estimate.calibrated) {
+        gyroscope_bias_S_radps = sim.imu->gyroscope_bias_radps();
+        sim.accelerometer_offset_S_mps2 = sim.imu->accelerometer_bias_mps2();
+      }
+      const Eigen::Vector3d f_at_rest_S_mps2 = q_SW * Eigen::Vector3d(0.0, 0.0, -gravity_W_.z()) +
+                                               sim.imu->accelerometer_bias_mps2() -
+                                               sim.accelerometer_offset_S_mps2;
+      sim.attitude->Initialize(
+          sensors::LevelFromSpecificForce(f_at_rest_S_mps2, yaw_rad(estimate.heading_rate_hz)),
+          gyroscope_bias_S_radps);
+    }
+    if (k % velocity_every_steps_ == 0) {
+      sim.attitude->UpdateVelocity(
+          state.v_WB_W + estimate.velocity_sigma_mps * sensors::Gaussian3(sim.aiding_random), k * dt);
+    }
+    if (k % heading_every_steps_ == 0) sim.attitude->UpdateHeading(yaw_rad(1.0), heading_every_steps_ * dt);
+    sim.attitude->Update(sample.w_I_radps, sample.f_I_mps2 - sim.accelerometer_offset_S_mps2, dt);
+    *q_WS = sim.attitude->q_WB();
+    w_I_radps -= sim.attitude->gyroscope_bias_B_radps();
+  } else {
+    w_I_radps = sim.imu->SampleGyroscope(*w_WS_S_radps, dt);
+  }
+  sim.gyro->Update(w_I_radps);
+  *w_WS_S_radps = sim.gyro->rate_S_radps();
+  *alpha_WS_S_radps2 = sim.gyro->acceleration_S_radps2();
 }
 
 void Simulation::Step() {

@@ -19,6 +19,7 @@
 #include <deque>
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,7 @@
 #include "physics/multibody_world.h"
 #include "physics/rotor.h"
 #include "physics/wind.h"
+#include "sensors/attitude_filter.h"
 
 namespace iapsim::sensors {
 class ImuModel;
@@ -119,17 +121,38 @@ struct ActuationConfig {
   double state_of_charge = 1.0;  // of every pack at the start
 };
 
-/// What each flight controller measures its rotation with: the truth (the paper's simulator), or its own
+/// What each flight controller measures its rotation with: the truth (the paper's simulator), its own
 /// gyroscope (the vehicle file's flight_controller.imu noise, seeded per sub-aircraft) through PX4's
 /// low-pass filters, with the rate loop's D term on the filtered angular acceleration (GyroFilter in
-/// physics/flight_controller.h). Its attitude is still the truth.
-enum class FlightControllerSensing { kTruth, kGyro };
+/// physics/flight_controller.h), the attitude still the truth; or, `kEstimate`, that gyroscope and an
+/// attitude estimated from its IMU (FlightControllerEstimate).
+enum class FlightControllerSensing { kTruth, kGyro, kEstimate };
+
+/// How a flight controller estimates its attitude where FlightControllerSensing::kEstimate: PX4's
+/// complementary filter (sensors/attitude_filter.h) on its IMU, aided by its own velocity (a VIO or GNSS
+/// velocity of the sub-aircraft, as the seed's VIRPO gives each one, §IV-D) and heading (a magnetometer's,
+/// sensors/heading_sensor.h's defaults), each the truth plus white noise at its rate. Before the first step
+/// the filter aligns as PX4 does on the ground: roll and pitch from the accelerometer's mean reading (its
+/// bias included), yaw from a second of headings. `calibrated`: the IMU's turn-on biases are removed before
+/// flight, as PX4's calibrations do (the gyroscope's at rest, the accelerometer's six-orientation and
+/// level-horizon calibration), leaving its noise and its in-run random walk; their residuals are left out.
+/// Uncalibrated, the vehicle file's turn-on biases stay (PX4 Gazebo's 0.196 m/s² accelerometer bias tilts the
+/// estimate by b/g, 1.1° per axis one sigma; the filter learns the gyroscope's in ~10 s).
+struct FlightControllerEstimate {
+  sensors::ComplementaryFilterGains gains;
+  bool calibrated = true;
+  double velocity_rate_hz = 50.0;
+  double velocity_sigma_mps = 0.02;  // per axis; the realistic profile's odometry velocity noise
+  double heading_rate_hz = 10.0;
+  double heading_sigma_rad = 2.0 * M_PI / 180.0;
+};
 
 struct SimulationConfig {
   double step_s = 0.001;
   AirConfig air;
   ActuationConfig actuation;
   FlightControllerSensing flight_controller_sensing = FlightControllerSensing::kTruth;
+  FlightControllerEstimate flight_controller_estimate;
   uint64_t seed = 0;  // the simulation's random streams (the command links' jitter)
   WorldConfig world;
   std::vector<VehicleSpec> vehicles;
@@ -141,6 +164,8 @@ struct SubAircraftOutput {
   Eigen::Vector3d thrust_W_N = Eigen::Vector3d::Zero();   // Λ_i: force of its rotors, in W
   Eigen::Vector3d torque_S_Nm = Eigen::Vector3d::Zero();  // τ_i about its CoM, in S
   RotorVector rotor_speeds_rad_s;
+  // the attitude its flight controller flew on: the truth, or its estimate (FlightControllerSensing)
+  Eigen::Quaterniond q_WS_flight_controller = Eigen::Quaterniond::Identity();
   bool saturated = false;
   // force of the sub-aircraft on the platform through its joint, in P (Newton's law on the sub-aircraft)
   Eigen::Vector3d joint_force_P_N = Eigen::Vector3d::Zero();
@@ -231,6 +256,10 @@ class Simulation {
     std::unique_ptr<ElectricDrive> drive;  // when the actuation is modelled
     std::unique_ptr<sensors::ImuModel> imu;  // when the flight controller runs on its own gyroscope
     std::unique_ptr<GyroFilter> gyro;
+    // when it also estimates its attitude: the filter, and the stream of its aiding measurements' noise
+    std::unique_ptr<sensors::ComplementaryAttitudeFilter> attitude;
+    Eigen::Vector3d accelerometer_offset_S_mps2 = Eigen::Vector3d::Zero();  // its calibration
+    std::mt19937_64 aiding_random;
     SubAircraftSetpoint setpoint;
     // the command link, and the setpoints on their way by the step they arrive at (non-decreasing)
     bridge::LinkDelay link;
@@ -250,6 +279,9 @@ class Simulation {
   };
 
   void ApplySubAircraft(VehicleSim& vehicle, int s);
+  // what sub-aircraft s's flight controller takes for its attitude, rate and angular acceleration (in S)
+  void SenseRotation(SubAircraftSim& sim, const BodyState& state, Eigen::Quaterniond* q_WS,
+                     Eigen::Vector3d* w_WS_S_radps, Eigen::Vector3d* alpha_WS_S_radps2);
   void ApplyAir(VehicleSim& vehicle);
   void ApplyRotorAir(VehicleSim& vehicle, int s);  // ground effect and the rotors' drag
   void ApplyDownwash(const VehicleSim& vehicle, int s);
@@ -262,6 +294,9 @@ class Simulation {
   Eigen::Vector3d gravity_W_;
   AirConfig air_;
   double ground_z_m_ = 0.0;  // the turbulence's height reference (z = 0 without a ground)
+  FlightControllerEstimate estimate_;  // with the aiding's periods in steps
+  int64_t velocity_every_steps_ = 1;
+  int64_t heading_every_steps_ = 1;
   std::vector<std::unique_ptr<VehicleSim>> vehicles_;
   std::vector<int> vehicle_of_body_;  // -1: not part of a vehicle
   // what a rotor's wake can push: movable bodies with collision shapes, with their bounding spheres as of

@@ -20,18 +20,25 @@ Eigen::Quaterniond Exp(const Eigen::Vector3d& v) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(angle, v / angle));
 }
 
+}  // namespace
+
 Eigen::Quaterniond FromRollPitchYaw(double roll_rad, double pitch_rad, double yaw_rad) {
   return Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()) *
          Eigen::AngleAxisd(pitch_rad, Eigen::Vector3d::UnitY()) *
          Eigen::AngleAxisd(roll_rad, Eigen::Vector3d::UnitX());
 }
 
-}  // namespace
-
 Eigen::Vector3d RollPitchYaw_rad(const Eigen::Quaterniond& q_WB) {
   const Eigen::Matrix3d R = q_WB.normalized().toRotationMatrix();
   return {std::atan2(R(2, 1), R(2, 2)), std::asin(std::clamp(-R(2, 0), -1.0, 1.0)),
           std::atan2(R(1, 0), R(0, 0))};
+}
+
+Eigen::Quaterniond LevelFromSpecificForce(const Eigen::Vector3d& f_B_mps2, double yaw_rad) {
+  // f_B = −g (−sin θ, sin φ cos θ, cos φ cos θ)
+  const double roll_rad = std::atan2(-f_B_mps2.y(), -f_B_mps2.z());
+  const double pitch_rad = std::atan2(f_B_mps2.x(), std::hypot(f_B_mps2.y(), f_B_mps2.z()));
+  return FromRollPitchYaw(roll_rad, pitch_rad, yaw_rad);
 }
 
 double WrapToPi(double angle_rad) {
@@ -44,11 +51,7 @@ AttitudeEstimator::AttitudeEstimator(const AttitudeEstimatorConfig& config) : co
 }
 
 void AttitudeEstimator::InitializeFromAccelerometer(const ImuSample& sample, double yaw_rad) {
-  const Eigen::Vector3d f_B = config_.q_BI * sample.f_I_mps2;
-  // at rest f_B = −g (−sin θ, sin φ cos θ, cos φ cos θ)
-  const double roll_rad = std::atan2(-f_B.y(), -f_B.z());
-  const double pitch_rad = std::atan2(f_B.x(), std::hypot(f_B.y(), f_B.z()));
-  Initialize(FromRollPitchYaw(roll_rad, pitch_rad, yaw_rad), Eigen::Vector3d::Zero());
+  Initialize(LevelFromSpecificForce(config_.q_BI * sample.f_I_mps2, yaw_rad), Eigen::Vector3d::Zero());
   previous_w_B_radps_ = config_.q_BI * sample.w_I_radps;
 }
 

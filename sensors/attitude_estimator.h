@@ -30,8 +30,13 @@ struct AttitudeEstimatorConfig {
   double acceleration_gate_mps2 = 2.0;
 };
 
+/// R_WB = Rz(yaw) Ry(pitch) Rx(roll).
+Eigen::Quaterniond FromRollPitchYaw(double roll_rad, double pitch_rad, double yaw_rad);
 /// Roll, pitch, yaw (rad) of R_WB = Rz(yaw) Ry(pitch) Rx(roll).
 Eigen::Vector3d RollPitchYaw_rad(const Eigen::Quaterniond& q_WB);
+/// The attitude whose specific force at rest, −g R_WBᵀ e₃, points along f_B, at the given yaw (rad): the
+/// roll and pitch a flight controller aligns to on the ground.
+Eigen::Quaterniond LevelFromSpecificForce(const Eigen::Vector3d& f_B_mps2, double yaw_rad);
 /// The angle in (−π, π].
 double WrapToPi(double angle_rad);
 

@@ -18,12 +18,6 @@ constexpr double kDeg = M_PI / 180.0;
 // seeds the worst was 3.0)
 constexpr double kSigmas = 3.5;
 
-Eigen::Quaterniond Rpy(double roll, double pitch, double yaw) {
-  return Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
-         Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-         Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
-}
-
 // A body turning about its fixed origin with body rates whose frequencies stay away from the yaw rate, so
 // that its tilt stays bounded (below 40° here).
 class TumblingBody {
@@ -41,7 +35,7 @@ class TumblingBody {
 
  private:
   static Eigen::Vector3d Rate(double t) { return {0.4 * std::sin(1.1 * t), 0.3 * std::cos(0.8 * t), 0.25}; }
-  BodyKinematics truth_{Rpy(0.1, -0.05, 0.3), Rate(0.0), Eigen::Vector3d(0.44, 0.0, 0.0),
+  BodyKinematics truth_{FromRollPitchYaw(0.1, -0.05, 0.3), Rate(0.0), Eigen::Vector3d(0.44, 0.0, 0.0),
                         Eigen::Vector3d::Zero()};
   double t_s_ = 0.0;
 };
@@ -53,7 +47,7 @@ ImuConfig BiasedImu() {
 }
 
 TEST(AttitudeEstimator, RollPitchYawRoundTripsAndWraps) {
-  const Eigen::Vector3d rpy = RollPitchYaw_rad(Rpy(0.3, -0.4, 2.9));
+  const Eigen::Vector3d rpy = RollPitchYaw_rad(FromRollPitchYaw(0.3, -0.4, 2.9));
   EXPECT_LT((rpy - Eigen::Vector3d(0.3, -0.4, 2.9)).norm(), 1e-12);
   EXPECT_NEAR(WrapToPi(3.0 * M_PI), M_PI, 1e-12);
   EXPECT_NEAR(WrapToPi(-M_PI), M_PI, 1e-12);
@@ -62,7 +56,7 @@ TEST(AttitudeEstimator, RollPitchYawRoundTripsAndWraps) {
 
 TEST(AttitudeEstimator, InitialisesRollAndPitchFromTheAccelerometer) {
   BodyKinematics truth;
-  truth.q_WB = Rpy(0.3, -0.2, 0.0);
+  truth.q_WB = FromRollPitchYaw(0.3, -0.2, 0.0);
   const ImuSample sample =
       IdealImuSample(truth, Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(), 9.81);
   AttitudeEstimator estimator{AttitudeEstimatorConfig()};
@@ -85,9 +79,9 @@ StaticRun RunStatic(const ImuConfig& imu_config, const AttitudeEstimatorConfig& 
                     uint64_t seed) {
   ImuModel imu(imu_config, seed);
   BodyKinematics truth;
-  truth.q_WB = Rpy(5 * kDeg, -3 * kDeg, 30 * kDeg);
+  truth.q_WB = FromRollPitchYaw(5 * kDeg, -3 * kDeg, 30 * kDeg);
   AttitudeEstimator estimator(estimator_config);
-  estimator.Initialize(truth.q_WB * Rpy(15 * kDeg, -10 * kDeg, 0.0), Eigen::Vector3d::Zero());
+  estimator.Initialize(truth.q_WB * FromRollPitchYaw(15 * kDeg, -10 * kDeg, 0.0), Eigen::Vector3d::Zero());
   for (int k = 0; k < static_cast<int>(60.0 / kDt); ++k) estimator.Update(imu.Sample(truth, kDt), kDt);
   const double g = imu_config.gravity_mps2;
   StaticRun run;
@@ -253,9 +247,9 @@ TEST(AttitudeEstimator, IgnoresTheAccelerometerWhileTheBodyAccelerates) {
 TEST(AttitudeErrorStatistics, RootMeanSquareAndMaximumPerAxis) {
   AttitudeErrorStatistics stats;
   EXPECT_EQ(stats.RootMeanSquare_rad(), Eigen::Vector3d::Zero());
-  const Eigen::Quaterniond truth = Rpy(0.1, 0.2, 3.1);
-  stats.Add(Rpy(0.13, 0.2, 3.1), truth);
-  stats.Add(Rpy(0.06, 0.2, -3.1), truth);  // yaw across ±π: 0.083 rad apart, not 6.2
+  const Eigen::Quaterniond truth = FromRollPitchYaw(0.1, 0.2, 3.1);
+  stats.Add(FromRollPitchYaw(0.13, 0.2, 3.1), truth);
+  stats.Add(FromRollPitchYaw(0.06, 0.2, -3.1), truth);  // yaw across ±π: 0.083 rad apart, not 6.2
   EXPECT_EQ(stats.count(), 2u);
   EXPECT_NEAR(stats.RootMeanSquare_rad().x(), std::sqrt((0.03 * 0.03 + 0.04 * 0.04) / 2.0), 1e-12);
   EXPECT_NEAR(stats.RootMeanSquare_rad().y(), 0.0, 1e-12);

@@ -44,7 +44,7 @@ TEST(FidelityProfile, RealisticFillsWhatTheScenarioLeavesOutAndTheScenarioWins) 
   const YAML::Node physics = ParamsOf(scenario, "physics");
   EXPECT_EQ(physics["air"]["wind_W_mps"][1].as<double>(), 3.0);                  // --set's
   EXPECT_EQ(physics["air"]["turbulence"]["model"].as<std::string>(), "dryden");  // the profile's, beside it
-  EXPECT_EQ(physics["flight_controller_sensing"].as<std::string>(), "gyro");
+  EXPECT_EQ(physics["flight_controller_sensing"].as<std::string>(), "estimate");
   EXPECT_EQ(physics["uncertainty"]["mass"]["normal"].as<double>(), 0.02);
   EXPECT_EQ(physics["vehicles"][0]["name"].as<std::string>(), "iap");  // the scenario's own, untouched
   const YAML::Node control = ParamsOf(scenario, "control");
