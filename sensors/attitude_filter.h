@@ -17,7 +17,7 @@
 
 namespace iapsim::sensors {
 
-/// PX4's attitude_estimator_q parameters (names and defaults of PX4 v1.14).
+/// PX4's attitude_estimator_q parameters, with their names and the defaults of its parameter file.
 struct ComplementaryFilterGains {
   double accelerometer_weight_per_s = 0.2;      ///< ATT_W_ACC
   double heading_weight_per_s = 0.1;            ///< ATT_W_EXT_HDG (and ATT_W_MAG)
