@@ -8,7 +8,8 @@ namespace iapsim::physics {
 
 bool SubAircraftSetpoint::IsValid() const {
   return std::isfinite(thrust_N) && q_WS.coeffs().allFinite() && std::abs(q_WS.norm() - 1.0) < 1e-6 &&
-         w_WS_S.allFinite() && thrust_W_N.allFinite() && torque_S_Nm.allFinite();
+         w_WS_S.allFinite() && thrust_W_N.allFinite() && torque_S_Nm.allFinite() &&
+         angular_acceleration_S_radps2.allFinite();
 }
 
 ButterworthLowPass::ButterworthLowPass(double cutoff_hz, double sample_hz) {
@@ -103,8 +104,9 @@ bool FlightController::Update(const SubAircraftSetpoint& setpoint, const Eigen::
                                 .cwiseMin(gains_.rate_integral_limit_rad_s2);
   }
   // PX4's rate controller: the D term acts on the measured angular acceleration, not on the error's
-  const Eigen::Vector3d angular_acceleration = gains_.rate_p_per_s.cwiseProduct(rate_error) +
-                                               rate_integral_rad_s2_ - gains_.rate_d.cwiseProduct(alpha_WS_S);
+  const Eigen::Vector3d angular_acceleration =
+      gains_.rate_p_per_s.cwiseProduct(rate_error) + rate_integral_rad_s2_ -
+      gains_.rate_d.cwiseProduct(alpha_WS_S) + setpoint.angular_acceleration_S_radps2;
   const Eigen::Vector3d torque_S =
       inertia_S_kgm2_ * angular_acceleration + w_WS_S.cross(inertia_S_kgm2_ * w_WS_S);
   saturated_ = rotors_.Mix(setpoint.thrust_N, torque_S, thrusts_N);

@@ -21,6 +21,9 @@ struct SubAircraftSetpoint {
   Eigen::Vector3d w_WS_S = Eigen::Vector3d::Zero();             // kBodyRate, rad/s
   Eigen::Vector3d thrust_W_N = Eigen::Vector3d::Zero();         // kThrustTorque: Λ_i in W
   Eigen::Vector3d torque_S_Nm = Eigen::Vector3d::Zero();        // kThrustTorque: τ_i in S, about the CoM
+  // kAttitude, kBodyRate: an angular acceleration added to the rate loop's (feed-forward, rad/s², in S),
+  // for commands that are accelerations (the RL docking actions, seed §IV-E); zero on the wire
+  Eigen::Vector3d angular_acceleration_S_radps2 = Eigen::Vector3d::Zero();
 
   /// Whether every number is finite and the attitude is a unit quaternion (within 1e-6).
   bool IsValid() const;

@@ -95,6 +95,36 @@ TEST(FlightController, TheDTermActsOnTheMeasuredAngularAcceleration) {
   EXPECT_GT((with_d - without).norm(), 0.01);
 }
 
+// An angular acceleration fed forward adds to the rate loop's: α_ff asks for the same torque as a rate
+// error of α_ff / P (no integral, no D, at rest).
+TEST(FlightController, AFedForwardAngularAccelerationActsAsARateErrorOfItOverP) {
+  const model::Vehicle vehicle =
+      model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star.yaml");
+  model::SubAircraft sub = vehicle.sub_aircraft[0];
+  sub.flight_controller.rate_i_per_s2.setZero();
+  const model::FlightControllerGains& gains = sub.flight_controller;
+  Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());
+  SubAircraftSetpoint setpoint;
+  setpoint.mode = SubAircraftSetpoint::Mode::kBodyRate;
+  setpoint.thrust_N = 20.0;
+  setpoint.angular_acceleration_S_radps2 = Eigen::Vector3d(3.0, -2.0, 1.0);
+  SubAircraftSetpoint equivalent = setpoint;
+  equivalent.angular_acceleration_S_radps2.setZero();
+  equivalent.w_WS_S = setpoint.angular_acceleration_S_radps2.cwiseQuotient(gains.rate_p_per_s);
+  RotorVector fed_forward, as_rate_error;
+  const auto update = [&](const SubAircraftSetpoint& command, RotorVector* thrusts_N) {
+    FlightController(gains, sub.mass.inertia_B_kgm2, rotors)
+        .Update(command, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
+                0.001, thrusts_N);
+  };
+  update(setpoint, &fed_forward);
+  update(equivalent, &as_rate_error);
+  EXPECT_LT((fed_forward - as_rate_error).norm(), 1e-12);
+  SubAircraftSetpoint not_finite = setpoint;
+  not_finite.angular_acceleration_S_radps2.x() = std::nan("");
+  EXPECT_FALSE(not_finite.IsValid());
+}
+
 std::string ThreeStarParams() {
   return "vehicles:\n  - {name: iap, file: " + std::string(IAPSIM_SOURCE_DIR) +
          "/configs/vehicles/three_star.yaml, position_m: [0, 0, -5]}\n";

@@ -649,7 +649,8 @@ MultibodyWorld::~MultibodyWorld() = default;
 
 int MultibodyWorld::AddMultibody(const std::string& name, const model::MultibodyDescription& description,
                                  const Eigen::Vector3d& p_WR_m, const Eigen::Quaterniond& q_WR,
-                                 const Material& material, const CollisionFilter& filter) {
+                                 const Material& material, const CollisionFilter& filter,
+                                 const Eigen::Vector3d& v_WR_W_mps, const Eigen::Vector3d& w_WR_W_radps) {
   Impl& impl = *impl_;
   const int links = static_cast<int>(description.links.size());
   if (links < 1 || description.joints.size() + 1 != description.links.size()) {
@@ -733,6 +734,9 @@ int MultibodyWorld::AddMultibody(const std::string& name, const model::Multibody
   const Eigen::Isometry3d X_WC = X_WR * frames[0].X_BC;
   mb->setBasePos(Bt(Eigen::Vector3d(X_WC.translation())));
   mb->setWorldToBaseRot(Bt(Eigen::Quaterniond(X_WC.linear())).inverse());
+  // Bullet's base velocity is its CoM's: v_WC = v_WR + w × (p_WC − p_WR)
+  mb->setBaseVel(Bt(Eigen::Vector3d(v_WR_W_mps + w_WR_W_radps.cross(X_WC.translation() - p_WR_m))));
+  mb->setBaseOmega(Bt(w_WR_W_radps));
   // fidelity over Bullet's game defaults (NOTES): no damping, no clamps, sleeping only by our own test
   mb->setLinearDamping(0.0);
   mb->setAngularDamping(0.0);

@@ -134,11 +134,15 @@ class MultibodyWorld {
   MultibodyWorld& operator=(const MultibodyWorld&) = delete;
 
   /// Adds a free-floating multibody whose root link frame starts at (p_WR, q_WR), every joint at its zero
-  /// position and everything at rest. Body names are "<name>/<link>". Returns the root's body id; link i of
-  /// the description is body root + i. Throws std::invalid_argument for a description Bullet cannot take.
+  /// position and at rest, the whole moving as one rigid body with the root frame's velocity v_WR and
+  /// angular velocity w_WR (in W; zero: at rest). Body names are "<name>/<link>". Returns the root's body id;
+  /// link i of the description is body root + i. Throws std::invalid_argument for a description Bullet cannot
+  /// take.
   int AddMultibody(const std::string& name, const model::MultibodyDescription& description,
                    const Eigen::Vector3d& p_WR_m, const Eigen::Quaterniond& q_WR,
-                   const Material& material = Material{}, const CollisionFilter& filter = CollisionFilter{});
+                   const Material& material = Material{}, const CollisionFilter& filter = CollisionFilter{},
+                   const Eigen::Vector3d& v_WR_W_mps = Eigen::Vector3d::Zero(),
+                   const Eigen::Vector3d& w_WR_W_radps = Eigen::Vector3d::Zero());
 
   int body_count() const;
   const std::string& body_name(int body) const;

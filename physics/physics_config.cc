@@ -3,6 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "bridge/scenario.h"
 #include "model/urdf.h"
 #include "model/vehicle.h"
 
@@ -367,6 +368,21 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
     }
     params.SetResolved("latches", resolved_latches);
   }
+  return config;
+}
+
+PhysicsConfig LoadScenarioPhysics(const std::string& scenario_file,
+                                  const std::vector<std::string>& overrides) {
+  const bridge::Scenario scenario = bridge::LoadScenario(scenario_file, overrides);
+  const bridge::ProcessConfig* clock = scenario.Find(scenario.clock_owner);
+  if (!clock || clock->exec != "iapsim_physics") {
+    throw bridge::ConfigError(
+        scenario_file + ": its clock is not an iapsim_physics process (wanted: the physics of a scenario)");
+  }
+  bridge::YamlMap params(clock->params, scenario_file, "processes." + clock->name + ".params");
+  PhysicsConfig config = ReadPhysicsConfig(params, scenario_file, scenario.clock.step_s);
+  config.simulation.seed = scenario.SeedFor(clock->name);
+  DrawTrueModel(config.uncertainty, config.simulation.seed, &config.simulation);
   return config;
 }
 

@@ -29,4 +29,11 @@ struct PhysicsConfig {
 PhysicsConfig ReadPhysicsConfig(bridge::YamlMap& params, const std::string& scenario_file,
                                 double publish_step_s);
 
+/// The physics of the scenario's clock process, which must be an iapsim_physics, as that process builds
+/// it: `overrides` ("key.path=value", e.g. "fidelity=realistic") applied to the scenario, its params read,
+/// the physics' seed of the run, and the model mismatch drawn with it. For in-process users (benchmarks, the
+/// RL environments). Throws bridge::ConfigError naming the file.
+PhysicsConfig LoadScenarioPhysics(const std::string& scenario_file,
+                                  const std::vector<std::string>& overrides = {});
+
 }  // namespace iapsim::physics

@@ -35,9 +35,12 @@ Simulation::Simulation(const SimulationConfig& config)
     }
     auto sim = std::make_unique<VehicleSim>();
     sim->spec = spec;
-    const Eigen::Quaterniond q_WP(Eigen::AngleAxisd(spec.yaw_rad, Eigen::Vector3d::UnitZ()));
+    const Eigen::Quaterniond q_WP = Eigen::AngleAxisd(spec.yaw_rad, Eigen::Vector3d::UnitZ()) *
+                                    Eigen::AngleAxisd(spec.pitch_rad, Eigen::Vector3d::UnitY()) *
+                                    Eigen::AngleAxisd(spec.roll_rad, Eigen::Vector3d::UnitX());
     VehicleOutput& out = sim->output;
-    out.platform_body = world_.AddMultibody(spec.name, spec.description, spec.p_WP_m, q_WP);
+    out.platform_body = world_.AddMultibody(spec.name, spec.description, spec.p_WP_m, q_WP, Material{},
+                                            CollisionFilter{}, spec.v_WP_W_mps, spec.w_WP_W_radps);
     vehicle_of_body_.resize(world_.body_count(), static_cast<int>(vehicles_.size()));
 
     if (config.air.turbulence) {

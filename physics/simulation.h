@@ -63,6 +63,12 @@ struct VehicleSpec {
   std::optional<model::Vehicle> flight_controller_model;
   Eigen::Vector3d p_WP_m = Eigen::Vector3d::Zero();
   double yaw_rad = 0.0;
+  // the start's attitude R_WP = Rz(yaw) Ry(pitch) Rx(roll) and the platform frame's velocity and angular
+  // velocity (in W): the vehicle starts moving as one rigid body, every joint at rest (RL resets, eq. (23))
+  double roll_rad = 0.0;
+  double pitch_rad = 0.0;
+  Eigen::Vector3d v_WP_W_mps = Eigen::Vector3d::Zero();
+  Eigen::Vector3d w_WP_W_radps = Eigen::Vector3d::Zero();
   InitialRotors initial_rotors = InitialRotors::kHover;
   TorqueReaction torque_reaction = TorqueReaction::kAir;
   CommandLink command_link;

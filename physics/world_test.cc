@@ -63,6 +63,35 @@ TEST(MultibodyWorld, BodiesStartWhereTheVehicleDescriptionPutsThem) {
   }
 }
 
+// A start with an attitude and a twist (an RL reset): every body where the rotated description puts it,
+// moving as one rigid body, v_B = v_P + ω × (p_B − p_P), ω_B = ω.
+TEST(MultibodyWorld, AVehicleStartsWithItsAttitudeAndRigidBodyTwist) {
+  SimulationConfig config;
+  config.world.ground = false;
+  VehicleSpec spec = Spec("three_star", Eigen::Vector3d(1.0, -2.0, -3.0), 0.7);
+  spec.roll_rad = 0.1;
+  spec.pitch_rad = -0.2;
+  spec.v_WP_W_mps = Eigen::Vector3d(0.3, -0.1, 0.2);
+  spec.w_WP_W_radps = Eigen::Vector3d(0.2, 0.5, -0.4);
+  config.vehicles.push_back(spec);
+  const Simulation sim(config);
+  const MultibodyWorld& world = sim.world();
+  const VehicleOutput& out = sim.output(0);
+  const Eigen::Quaterniond q_WP = Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()) *
+                                  Eigen::AngleAxisd(-0.2, Eigen::Vector3d::UnitY()) *
+                                  Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX());
+  const BodyState& platform = world.body(out.platform_body);
+  EXPECT_LT(platform.q_WB.angularDistance(q_WP), 1e-12);
+  for (const int body : out.sub_aircraft_bodies) {
+    const BodyState& state = world.body(body);
+    const Eigen::Vector3d r_m = state.p_WB_m - platform.p_WB_m;
+    EXPECT_LT((state.v_WB_W - (spec.v_WP_W_mps + spec.w_WP_W_radps.cross(r_m))).norm(), 1e-12);
+    EXPECT_LT((state.w_WB_W - spec.w_WP_W_radps).norm(), 1e-12);
+  }
+  EXPECT_LT((platform.v_WB_W - spec.v_WP_W_mps).norm(), 1e-12);
+  EXPECT_LT((platform.w_WB_W - spec.w_WP_W_radps).norm(), 1e-12);
+}
+
 // Gravity off, a spin-up with internal torques only, then free flight: linear and angular momentum stay
 // what they were, kinetic energy stays put, joints stay together (eq. (1) holds).
 TEST(MultibodyWorld, FreeFloatingIapConservesMomentumAndKeepsItsJoints) {

@@ -8,7 +8,6 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "bridge/scenario.h"
 #include "model/urdf.h"
 #include "model/vehicle.h"
 #include "physics/benchmark.h"
@@ -90,21 +89,9 @@ double MeasureInGustyAir(model::Vehicle vehicle, bool downwash = true, bool actu
   return physics::MeasureEpisodeStepsPerSecond(config, kEpisodeSteps, kSecondsPerFigure);
 }
 
-// The physics of `scenario_file`'s physics process in `fidelity`, as that process builds it: the profile's
-// keys, then the model mismatch drawn with the run's seed.
+// The physics of `scenario_file`'s physics process in `fidelity`, as that process builds it.
 physics::SimulationConfig ScenarioPhysics(const std::string& scenario_file, const std::string& fidelity) {
-  const bridge::Scenario scenario = bridge::LoadScenario(scenario_file, {"fidelity=" + fidelity});
-  const bridge::ProcessConfig* clock = scenario.Find(scenario.clock_owner);
-  if (!clock || clock->exec != "iapsim_physics") {
-    throw bridge::ConfigError(scenario_file +
-                              ": its clock is not an iapsim_physics process; bench physics "
-                              "compares the fidelity profiles of a scenario's physics");
-  }
-  bridge::YamlMap params(clock->params, scenario_file, "processes." + clock->name + ".params");
-  physics::PhysicsConfig config = physics::ReadPhysicsConfig(params, scenario_file, scenario.clock.step_s);
-  config.simulation.seed = scenario.SeedFor(clock->name);
-  physics::DrawTrueModel(config.uncertainty, config.simulation.seed, &config.simulation);
-  return config.simulation;
+  return physics::LoadScenarioPhysics(scenario_file, {"fidelity=" + fidelity}).simulation;
 }
 
 // Issue 19's budget: the realistic profile may cost at most 1.3 times the ideal one. Both profiles of the

@@ -307,6 +307,8 @@ int Bench(const BenchArgs& args) {
   if (args.what == "record" || all) status |= BenchRecord(args.scenario, args.repeats, &report);
   if (all) std::printf("\n");
   if (args.what == "fidelity" || all) status |= BenchFidelity(args.vehicle, &report);
+  if (all) std::printf("\n");
+  if (args.what == "rl" || all) status |= BenchRl(args.task, &report);
   if (!args.json.empty()) {
     std::ofstream(args.json) << report.dump(2) << "\n";
     std::printf("figures written to %s\n", args.json.c_str());

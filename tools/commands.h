@@ -101,11 +101,30 @@ int BenchRecord(const std::string& scenario, int repeats, nlohmann::json* report
 /// beside its linear model or published value, ideal and realistic actuation.
 int BenchFidelity(const std::string& vehicle_path, nlohmann::json* report);
 
+/// Control steps/s of the RL docking environments over whole episodes flown by the expert, 1 and 2 threads,
+/// and where one thread's time goes (policy, physics in the air and in contact, the rest of the environment).
+int BenchRl(const std::string& task_file, nlohmann::json* report);
+
+struct RlEvalArgs {
+  std::string task = "configs/rl/docking.yaml";
+  std::string policy = "expert";
+  int episodes = 200;
+  uint64_t seed = 1;
+  int threads = 2;
+  std::vector<std::string> overrides;  // --set KEY=VALUE on the task
+  std::string out_dir;                 // summary.json, episodes.csv, traces.csv; empty: print only
+  int trace_episodes = 10;             // episodes whose d_xz, d_y and f_y are written step by step
+};
+/// Flies `episodes` randomised docking episodes with a policy and prints its success rate and steps to
+/// dock (seed §VI-H). Exit 2 on a bad task or policy.
+int RlEval(const RlEvalArgs& args);
+
 struct BenchArgs {
-  std::string what = "all";  // bus, physics, render, record, fidelity or all
+  std::string what = "all";  // bus, physics, render, record, fidelity, rl or all
   std::string vehicle = "configs/vehicles/three_star.yaml";
   std::string scene = "configs/scenes/buildings.yaml";
   std::string scenario = "configs/regression/three_star_spiral.yaml";
+  std::string task = "configs/rl/docking.yaml";
   int repeats = 3;
   std::string json;  // also write every figure here
 };

@@ -103,8 +103,8 @@ int main(int argc, char** argv) {
 
   BenchArgs bench;
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
-  bench_cmd->add_option("what", bench.what, "bus, physics, render, record, fidelity or all")
-      ->check(CLI::IsMember({"bus", "physics", "render", "record", "fidelity", "all"}));
+  bench_cmd->add_option("what", bench.what, "bus, physics, render, record, fidelity, rl or all")
+      ->check(CLI::IsMember({"bus", "physics", "render", "record", "fidelity", "rl", "all"}));
   bench_cmd->add_option("--vehicle", bench.vehicle,
                         "physics, render, fidelity: the vehicle to measure (default the three-star)");
   bench_cmd->add_option("--scene", bench.scene, "render: the scene (default configs/scenes/buildings.yaml)");
@@ -116,7 +116,28 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   bench_cmd->add_option("--repeat", bench.repeats, "record: runs of each variant (default 3)")
       ->check(CLI::Range(1, 100));
+  bench_cmd->add_option("--task", bench.task, "rl: the docking task (default configs/rl/docking.yaml)")
+      ->check(CLI::ExistingFile);
   bench_cmd->add_option("--json", bench.json, "also write the figures to this JSON file");
+
+  auto* rl_cmd = app.add_subcommand("rl", "the air-docking learning task (seed section VI-H)");
+  rl_cmd->require_subcommand(1);
+  RlEvalArgs rl_eval;
+  auto* rl_eval_cmd =
+      rl_cmd->add_subcommand("eval", "fly randomised docking episodes with a policy, print its success");
+  rl_eval_cmd->add_option("--task", rl_eval.task, "task YAML (default configs/rl/docking.yaml)")
+      ->check(CLI::ExistingFile);
+  rl_eval_cmd->add_option("--policy", rl_eval.policy, "expert (default)");
+  rl_eval_cmd->add_option("--episodes", rl_eval.episodes, "episodes (default 200)")
+      ->check(CLI::Range(1, 1000000));
+  rl_eval_cmd->add_option("--seed", rl_eval.seed, "episode e starts from the stream (seed, e) (default 1)");
+  rl_eval_cmd->add_option("--threads", rl_eval.threads, "threads (default 2)")->check(CLI::Range(1, 1024));
+  rl_eval_cmd->add_option("--set", rl_eval.overrides, "override a task key: KEY=VALUE (repeatable)");
+  rl_eval_cmd->add_option("--out", rl_eval.out_dir, "write summary.json, episodes.csv and traces.csv here");
+  rl_eval_cmd
+      ->add_option("--trace", rl_eval.trace_episodes,
+                   "episodes traced step by step in traces.csv (default 10)")
+      ->check(CLI::Range(0, 1000000));
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -131,6 +152,7 @@ int main(int argc, char** argv) {
     if (*echo_cmd) return Echo(echo);
     if (*urdf_cmd) return Urdf(urdf_vehicle, urdf_output);
     if (*bench_cmd) return Bench(bench);
+    if (*rl_eval_cmd) return RlEval(rl_eval);
   } catch (const std::exception& e) {
     std::cerr << "iapsim: " << e.what() << std::endl;
     return 1;
