@@ -11,6 +11,9 @@ find_package(nlohmann_json REQUIRED)
 find_package(Threads REQUIRED)
 # OpenMP (GCC's libgomp): the RL vector environment steps its environments in parallel (rl/vector_env.h)
 find_package(OpenMP REQUIRED)
+# HDF5's C library, serial build: the RL data sets in D4RL's layout (rl/dataset.h). Through pkg-config:
+# FindHDF5 test-compiles C, a language this project does not enable.
+pkg_check_modules(HDF5 REQUIRED IMPORTED_TARGET hdf5-serial)
 pkg_check_modules(URDFDOM REQUIRED IMPORTED_TARGET urdfdom)
 pkg_check_modules(TINYXML2 REQUIRED IMPORTED_TARGET tinyxml2)
 pkg_check_modules(ASSIMP REQUIRED IMPORTED_TARGET assimp)

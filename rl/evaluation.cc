@@ -13,14 +13,28 @@
 namespace iapsim::rl {
 namespace {
 
-void RunEpisode(DockingEnv& env, Policy& policy, uint64_t seed, bool trace, EpisodeResult* result) {
+void RunEpisode(DockingEnv& env, Policy& policy, uint64_t seed, bool trace, bool keep_transitions,
+                EpisodeResult* result) {
   result->seed = seed;
   Observation observation = env.Reset(seed);
   policy.Reset();
   StepResult step;
+  Transitions& transitions = result->transitions;
   while (!step.terminated && !step.truncated) {
-    step = env.Step(policy.Act(observation), &observation);
+    const Action action = policy.Act(observation);
+    if (keep_transitions) {
+      transitions.observations.push_back(observation);
+      transitions.actions.push_back(action);
+    }
+    step = env.Step(action, &observation);
     result->episode_return += step.reward;
+    if (keep_transitions) {
+      transitions.rewards.push_back(step.reward);
+      transitions.next_observations.push_back(observation);
+      transitions.terminals.push_back(step.terminated);
+      transitions.timeouts.push_back(step.truncated);
+      transitions.successes.push_back(step.info.outcome == Outcome::kSuccess);
+    }
     if (trace) {
       result->trace.push_back({step.info.radial_error_m, step.info.axial_error_m, step.info.contact_force_y_N,
                                step.info.latched});
@@ -34,7 +48,8 @@ void RunEpisode(DockingEnv& env, Policy& policy, uint64_t seed, bool trace, Epis
 }  // namespace
 
 std::vector<EpisodeResult> RunEpisodes(const DockingTaskConfig& task, const PolicyFactory& make_policy,
-                                       int episodes, uint64_t seed, int threads, int trace_episodes) {
+                                       int episodes, uint64_t seed, int threads,
+                                       const EpisodeOptions& options) {
   if (episodes < 1)
     throw std::invalid_argument("episodes must be at least 1, got " + std::to_string(episodes));
   if (threads < 1) throw std::invalid_argument("threads must be at least 1, got " + std::to_string(threads));
@@ -53,8 +68,9 @@ std::vector<EpisodeResult> RunEpisodes(const DockingTaskConfig& task, const Poli
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
   for (int e = 0; e < episodes; ++e) {
     try {
-      RunEpisode(*envs[omp_get_thread_num()], *policies[omp_get_thread_num()], physics::StreamSeed(seed, e),
-                 e < trace_episodes, &results[e]);
+      RunEpisode(*envs[omp_get_thread_num()], *policies[omp_get_thread_num()],
+                 physics::StreamSeed(seed, options.first + e), e < options.trace, options.transitions,
+                 &results[e]);
     } catch (...) {
 #pragma omp critical(iapsim_rl_episode_failure)
       if (!failure) failure = std::current_exception();

@@ -21,13 +21,32 @@ struct TracePoint {
   bool latched = false;
 };
 
+/// An episode's transitions, in D4RL's fields (rl/dataset.h): what was observed, done and given.
+struct Transitions {
+  std::vector<Observation> observations;
+  std::vector<Action> actions;
+  std::vector<double> rewards;
+  std::vector<Observation> next_observations;
+  std::vector<uint8_t> terminals;  // the episode's own end (success, crash, separation)
+  std::vector<uint8_t> timeouts;   // truncated for time
+  std::vector<uint8_t> successes;  // the step that made the episode a success
+  size_t size() const { return rewards.size(); }
+};
+
 struct EpisodeResult {
   uint64_t seed = 0;
   Outcome outcome = Outcome::kRunning;
   int steps = 0;
   int docked_step = -1;  // the step at which the latch closed, or −1
   double episode_return = 0.0;
-  std::vector<TracePoint> trace;  // for the first `trace_episodes` episodes only
+  std::vector<TracePoint> trace;  // where EpisodeOptions::trace asked for it
+  Transitions transitions;        // where EpisodeOptions::transitions asked for them
+};
+
+struct EpisodeOptions {
+  int first = 0;             // the first episode's index (its stream)
+  int trace = 0;             // episodes traced, from the first
+  bool transitions = false;  // keep every episode's transitions
 };
 
 struct EvaluationSummary {
@@ -42,9 +61,10 @@ struct EvaluationSummary {
 
 using PolicyFactory = std::function<std::unique_ptr<Policy>(const DockingEnv& env)>;
 
-/// Runs `episodes` episodes of `task` with a policy from `make_policy` per thread.
+/// Runs episodes first .. first + episodes − 1 of `task` with a policy from `make_policy` per thread.
 std::vector<EpisodeResult> RunEpisodes(const DockingTaskConfig& task, const PolicyFactory& make_policy,
-                                       int episodes, uint64_t seed, int threads, int trace_episodes = 0);
+                                       int episodes, uint64_t seed, int threads,
+                                       const EpisodeOptions& options = EpisodeOptions());
 
 EvaluationSummary Summarize(const std::vector<EpisodeResult>& results);
 

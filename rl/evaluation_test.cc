@@ -19,8 +19,8 @@ DockingTaskConfig ShortTask() {
 
 TEST(RunEpisodes, GiveTheSameEpisodesOnAnyNumberOfThreads) {
   const PolicyFactory expert = [](const DockingEnv& env) { return MakePolicy("expert", env); };
-  const std::vector<EpisodeResult> one = RunEpisodes(ShortTask(), expert, 5, 3, 1, 2);
-  const std::vector<EpisodeResult> two = RunEpisodes(ShortTask(), expert, 5, 3, 2, 2);
+  const std::vector<EpisodeResult> one = RunEpisodes(ShortTask(), expert, 5, 3, 1, {0, 2, false});
+  const std::vector<EpisodeResult> two = RunEpisodes(ShortTask(), expert, 5, 3, 2, {0, 2, false});
   ASSERT_EQ(one.size(), 5u);
   for (size_t e = 0; e < one.size(); ++e) {
     EXPECT_EQ(one[e].seed, two[e].seed);

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# End-to-end test of the iapsim program as a user runs it: run, info, export, topics, echo, bench record, bad
-# configuration, SIGTERM of a running launcher (clean stop, no process left behind).
+# End-to-end test of the iapsim program as a user runs it: run, info, export, topics, echo, bench record, rl
+# collect and eval, bad configuration, SIGTERM of a running launcher (clean stop, no process left behind).
 # usage: cli_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
 bin=$1
@@ -11,8 +11,9 @@ trap 'rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
 # every subcommand answers --help
-for cmd in run replay info export video topics echo urdf bench; do
-  "$iapsim" "$cmd" --help > /dev/null || fail "$cmd --help"
+for cmd in run replay info export video topics echo urdf bench "rl eval" "rl collect"; do
+  # shellcheck disable=SC2086  # "rl eval" is a subcommand and its subcommand
+  "$iapsim" $cmd --help > /dev/null || fail "$cmd --help"
 done
 
 # a short lockstep run with a complete run directory
@@ -72,6 +73,21 @@ code=$?
 set -e
 [ $code -eq 2 ] || fail "bad vehicle exited $code"
 grep -q "bad_vehicle.yaml:2:" "$work/bad_vehicle.err" || fail "bad vehicle: $(cat "$work/bad_vehicle.err")"
+
+# the docking task: two short episodes collected as an HDF5 data set, evaluated into a folder; a wrong key
+"$iapsim" rl collect "$work/rl/expert.hdf5" --task "$src/configs/rl/docking.yaml" --episodes 2 --threads 1 --set termination.max_steps=40 > "$work/collect.out"
+grep -q "2 episodes .* 80 transitions" "$work/collect.out" || fail "rl collect: $(cat "$work/collect.out")"
+[ -s "$work/rl/expert.hdf5" ] && [ ! -e "$work/rl/expert.hdf5.partial" ] || fail "rl collect left no complete file"
+"$iapsim" rl eval --task "$src/configs/rl/docking.yaml" --episodes 2 --set termination.max_steps=40 --out "$work/eval" > "$work/eval.out"
+grep -q "success        0.0 %" "$work/eval.out" || fail "rl eval: $(cat "$work/eval.out")"
+grep -q '"timeouts": 2' "$work/eval/summary.json" || fail "rl eval: $(cat "$work/eval/summary.json")"
+[ "$(wc -l < "$work/eval/traces.csv")" -eq 81 ] || fail "rl eval traces: $(wc -l < "$work/eval/traces.csv") lines"
+set +e
+"$iapsim" rl eval --task "$src/configs/rl/docking.yaml" --episodes 1 --set reward.bonus=1 2> "$work/rl_bad.err"
+code=$?
+set -e
+[ $code -eq 2 ] || fail "rl eval with a wrong key exited $code"
+grep -q "docking.yaml: reward.bonus" "$work/rl_bad.err" || fail "rl eval wrong key: $(cat "$work/rl_bad.err")"
 
 # bad configuration: exit code 2 and file:line in the message
 sed 's/^duration_s: 5.0/duration_s: soon/' "$src/configs/scenarios/bus_demo.yaml" > "$work/bad.yaml"

@@ -119,6 +119,19 @@ struct RlEvalArgs {
 /// dock (seed §VI-H). Exit 2 on a bad task or policy.
 int RlEval(const RlEvalArgs& args);
 
+struct RlCollectArgs {
+  std::string task = "configs/rl/docking.yaml";
+  std::string policy = "expert";
+  int episodes = 200;
+  uint64_t seed = 1;
+  int threads = 2;
+  std::vector<std::string> overrides;
+  std::string output;  // the HDF5 data set
+};
+/// Flies `episodes` episodes with a policy and writes their transitions as an HDF5 data set in D4RL's layout
+/// (rl/dataset.h). Exit 2 on a bad task or policy, 1 when the file cannot be written.
+int RlCollect(const RlCollectArgs& args);
+
 struct BenchArgs {
   std::string what = "all";  // bus, physics, render, record, fidelity, rl or all
   std::string vehicle = "configs/vehicles/three_star.yaml";

@@ -139,6 +139,21 @@ int main(int argc, char** argv) {
                    "episodes traced step by step in traces.csv (default 10)")
       ->check(CLI::Range(0, 1000000));
 
+  RlCollectArgs rl_collect;
+  auto* rl_collect_cmd = rl_cmd->add_subcommand(
+      "collect", "fly episodes with a policy, write their transitions as HDF5 (D4RL layout)");
+  rl_collect_cmd->add_option("output", rl_collect.output, "the data set file (.hdf5)")->required();
+  rl_collect_cmd->add_option("--task", rl_collect.task, "task YAML (default configs/rl/docking.yaml)")
+      ->check(CLI::ExistingFile);
+  rl_collect_cmd->add_option("--policy", rl_collect.policy, "expert (default)");
+  rl_collect_cmd->add_option("--episodes", rl_collect.episodes, "episodes (default 200)")
+      ->check(CLI::Range(1, 10000000));
+  rl_collect_cmd->add_option("--seed", rl_collect.seed,
+                             "episode e starts from the stream (seed, e) (default 1)");
+  rl_collect_cmd->add_option("--threads", rl_collect.threads, "threads (default 2)")
+      ->check(CLI::Range(1, 1024));
+  rl_collect_cmd->add_option("--set", rl_collect.overrides, "override a task key: KEY=VALUE (repeatable)");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*run_cmd) return Run(run);
@@ -153,6 +168,7 @@ int main(int argc, char** argv) {
     if (*urdf_cmd) return Urdf(urdf_vehicle, urdf_output);
     if (*bench_cmd) return Bench(bench);
     if (*rl_eval_cmd) return RlEval(rl_eval);
+    if (*rl_collect_cmd) return RlCollect(rl_collect);
   } catch (const std::exception& e) {
     std::cerr << "iapsim: " << e.what() << std::endl;
     return 1;

@@ -19,6 +19,8 @@ packages=(
   # rendering: OSMesa (llvmpipe), EGL and GL headers, libdeflate for PNG encoding, decoding and video through OpenCV
   libosmesa6-dev libegl-dev libgl-dev libdeflate-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev
+  # learning (rl/): HDF5 for the offline data sets (D4RL's layout), h5py to read them in Python
+  libhdf5-dev python3-h5py
   # tests and benchmarks (MuJoCo: the reference beside iapsim in `iapsim bench physics`)
   libgtest-dev libgmock-dev libbenchmark-dev libmujoco-dev
 )

@@ -12,6 +12,7 @@
 #include "bridge/config.h"
 #include "physics/physics_config.h"
 #include "physics/random.h"
+#include "rl/dataset.h"
 #include "rl/evaluation.h"
 #include "rl/vector_env.h"
 #include "tools/commands.h"
@@ -43,15 +44,33 @@ void WriteEpisodes(const std::vector<rl::EpisodeResult>& results, const std::str
   }
 }
 
+// Runs a command's body: a bad task or policy is exit 2, a file that cannot be written exit 1, each with the
+// command's name and the reason.
+template <typename Body>
+int Guarded(const char* command, Body body) {
+  try {
+    return body();
+  } catch (const bridge::ConfigError& error) {
+    std::fprintf(stderr, "iapsim rl %s: %s\n", command, error.what());
+    return 2;
+  } catch (const std::invalid_argument& error) {
+    std::fprintf(stderr, "iapsim rl %s: %s\n", command, error.what());
+    return 2;
+  } catch (const std::runtime_error& error) {
+    std::fprintf(stderr, "iapsim rl %s: %s\n", command, error.what());
+    return 1;
+  }
+}
+
 }  // namespace
 
 int RlEval(const RlEvalArgs& args) {
-  try {
+  return Guarded("eval", [&] {
     const rl::DockingTaskConfig task = rl::ReadDockingTask(args.task, args.overrides);
     const auto make_policy = [&](const rl::DockingEnv& env) { return rl::MakePolicy(args.policy, env); };
     const Clock::time_point start = Clock::now();
-    const std::vector<rl::EpisodeResult> results =
-        rl::RunEpisodes(task, make_policy, args.episodes, args.seed, args.threads, args.trace_episodes);
+    const std::vector<rl::EpisodeResult> results = rl::RunEpisodes(
+        task, make_policy, args.episodes, args.seed, args.threads, {0, args.trace_episodes, false});
     const double wall_s = Seconds(start);
     const rl::EvaluationSummary summary = rl::Summarize(results);
     int steps = 0;
@@ -86,13 +105,42 @@ int RlEval(const RlEvalArgs& args) {
       std::printf("  written to   %s (summary.json, episodes.csv, traces.csv)\n", args.out_dir.c_str());
     }
     return 0;
-  } catch (const bridge::ConfigError& error) {
-    std::fprintf(stderr, "iapsim rl eval: %s\n", error.what());
-    return 2;
-  } catch (const std::invalid_argument& error) {
-    std::fprintf(stderr, "iapsim rl eval: %s\n", error.what());
-    return 2;
-  }
+  });
+}
+
+int RlCollect(const RlCollectArgs& args) {
+  return Guarded("collect", [&] {
+    const rl::DockingTaskConfig task = rl::ReadDockingTask(args.task, args.overrides);
+    const auto make_policy = [&](const rl::DockingEnv& env) { return rl::MakePolicy(args.policy, env); };
+    if (std::filesystem::path(args.output).has_parent_path()) {
+      std::filesystem::create_directories(std::filesystem::path(args.output).parent_path());
+    }
+    rl::DatasetWriter writer(args.output);
+    const Clock::time_point start = Clock::now();
+    // in batches, so that memory holds a batch's transitions and not the whole set's
+    const int batch = 16 * args.threads;
+    std::vector<rl::EpisodeResult> episodes;
+    for (int first = 0; first < args.episodes; first += batch) {
+      std::vector<rl::EpisodeResult> results =
+          rl::RunEpisodes(task, make_policy, std::min(batch, args.episodes - first), args.seed, args.threads,
+                          {first, 0, true});
+      for (rl::EpisodeResult& result : results) {
+        writer.Append(result.transitions);
+        result.transitions = rl::Transitions();
+        episodes.push_back(std::move(result));
+      }
+    }
+    writer.Close({args.task, task.scenario, args.policy, args.seed, args.episodes, task.control_rate_hz});
+    const rl::EvaluationSummary summary = rl::Summarize(episodes);
+    std::printf("%d episodes of %s with %s from seed %llu: %lld transitions in %.1f s\n", args.episodes,
+                args.task.c_str(), args.policy.c_str(), static_cast<unsigned long long>(args.seed),
+                static_cast<long long>(writer.size()), Seconds(start));
+    std::printf("  success %.1f %% (crash %d, separation %d, timeout %d)\n", 100.0 * summary.success_rate,
+                summary.crashes, summary.separations, summary.timeouts);
+    std::printf("  written to %s (%.1f MiB, D4RL layout)\n", args.output.c_str(),
+                std::filesystem::file_size(args.output) / 1048576.0);
+    return 0;
+  });
 }
 
 int BenchRl(const std::string& task_file, nlohmann::json* report) {
