@@ -5,6 +5,21 @@
 
 #include "tools/commands.h"
 
+namespace {
+
+// The options `iapsim rl eval` and `collect` share.
+void AddEpisodeOptions(CLI::App* command, iapsim::tools::RlEpisodeArgs* args) {
+  command->add_option("--task", args->task, "task YAML (default configs/rl/docking.yaml)")
+      ->check(CLI::ExistingFile);
+  command->add_option("--policy", args->policy, "expert (default)");
+  command->add_option("--episodes", args->episodes, "episodes (default 200)")->check(CLI::Range(1, 10000000));
+  command->add_option("--seed", args->seed, "episode e starts from the stream (seed, e) (default 1)");
+  command->add_option("--threads", args->threads, "threads (default 2)")->check(CLI::Range(1, 1024));
+  command->add_option("--set", args->overrides, "override a task key: KEY=VALUE (repeatable)");
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   using namespace iapsim::tools;
   CLI::App app("iapsim: a multi-process simulator for Integrated Aerial Platforms");
@@ -125,34 +140,17 @@ int main(int argc, char** argv) {
   RlEvalArgs rl_eval;
   auto* rl_eval_cmd =
       rl_cmd->add_subcommand("eval", "fly randomised docking episodes with a policy, print its success");
-  rl_eval_cmd->add_option("--task", rl_eval.task, "task YAML (default configs/rl/docking.yaml)")
-      ->check(CLI::ExistingFile);
-  rl_eval_cmd->add_option("--policy", rl_eval.policy, "expert (default)");
-  rl_eval_cmd->add_option("--episodes", rl_eval.episodes, "episodes (default 200)")
-      ->check(CLI::Range(1, 1000000));
-  rl_eval_cmd->add_option("--seed", rl_eval.seed, "episode e starts from the stream (seed, e) (default 1)");
-  rl_eval_cmd->add_option("--threads", rl_eval.threads, "threads (default 2)")->check(CLI::Range(1, 1024));
-  rl_eval_cmd->add_option("--set", rl_eval.overrides, "override a task key: KEY=VALUE (repeatable)");
+  AddEpisodeOptions(rl_eval_cmd, &rl_eval.episodes);
   rl_eval_cmd->add_option("--out", rl_eval.out_dir, "write summary.json, episodes.csv and traces.csv here");
   rl_eval_cmd
       ->add_option("--trace", rl_eval.trace_episodes,
                    "episodes traced step by step in traces.csv (default 10)")
       ->check(CLI::Range(0, 1000000));
-
   RlCollectArgs rl_collect;
   auto* rl_collect_cmd = rl_cmd->add_subcommand(
       "collect", "fly episodes with a policy, write their transitions as HDF5 (D4RL layout)");
   rl_collect_cmd->add_option("output", rl_collect.output, "the data set file (.hdf5)")->required();
-  rl_collect_cmd->add_option("--task", rl_collect.task, "task YAML (default configs/rl/docking.yaml)")
-      ->check(CLI::ExistingFile);
-  rl_collect_cmd->add_option("--policy", rl_collect.policy, "expert (default)");
-  rl_collect_cmd->add_option("--episodes", rl_collect.episodes, "episodes (default 200)")
-      ->check(CLI::Range(1, 10000000));
-  rl_collect_cmd->add_option("--seed", rl_collect.seed,
-                             "episode e starts from the stream (seed, e) (default 1)");
-  rl_collect_cmd->add_option("--threads", rl_collect.threads, "threads (default 2)")
-      ->check(CLI::Range(1, 1024));
-  rl_collect_cmd->add_option("--set", rl_collect.overrides, "override a task key: KEY=VALUE (repeatable)");
+  AddEpisodeOptions(rl_collect_cmd, &rl_collect.episodes);
 
   CLI11_PARSE(app, argc, argv);
   try {

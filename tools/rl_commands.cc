@@ -64,13 +64,14 @@ int Guarded(const char* command, Body body) {
 
 }  // namespace
 
-int RlEval(const RlEvalArgs& args) {
+int RlEval(const RlEvalArgs& eval) {
+  const RlEpisodeArgs& args = eval.episodes;
   return Guarded("eval", [&] {
     const rl::DockingTaskConfig task = rl::ReadDockingTask(args.task, args.overrides);
     const auto make_policy = [&](const rl::DockingEnv& env) { return rl::MakePolicy(args.policy, env); };
     const Clock::time_point start = Clock::now();
     const std::vector<rl::EpisodeResult> results = rl::RunEpisodes(
-        task, make_policy, args.episodes, args.seed, args.threads, {0, args.trace_episodes, false});
+        task, make_policy, args.episodes, args.seed, args.threads, {0, eval.trace_episodes, false});
     const double wall_s = Seconds(start);
     const rl::EvaluationSummary summary = rl::Summarize(results);
     int steps = 0;
@@ -88,8 +89,8 @@ int RlEval(const RlEvalArgs& args) {
                   summary.docked_step_p95 / task.control_rate_hz, task.control_rate_hz);
     }
     std::printf("  return       %.1f mean\n", summary.return_mean);
-    if (!args.out_dir.empty()) {
-      WriteEpisodes(results, args.out_dir);
+    if (!eval.out_dir.empty()) {
+      WriteEpisodes(results, eval.out_dir);
       nlohmann::json json = {{"policy", args.policy},
                              {"task", args.task},
                              {"episodes", summary.episodes},
@@ -101,21 +102,22 @@ int RlEval(const RlEvalArgs& args) {
                              {"docked_step_mean", summary.docked_step_mean},
                              {"docked_step_p95", summary.docked_step_p95},
                              {"return_mean", summary.return_mean}};
-      std::ofstream(args.out_dir + "/summary.json") << json.dump(2) << "\n";
-      std::printf("  written to   %s (summary.json, episodes.csv, traces.csv)\n", args.out_dir.c_str());
+      std::ofstream(eval.out_dir + "/summary.json") << json.dump(2) << "\n";
+      std::printf("  written to   %s (summary.json, episodes.csv, traces.csv)\n", eval.out_dir.c_str());
     }
     return 0;
   });
 }
 
-int RlCollect(const RlCollectArgs& args) {
+int RlCollect(const RlCollectArgs& collect) {
+  const RlEpisodeArgs& args = collect.episodes;
   return Guarded("collect", [&] {
     const rl::DockingTaskConfig task = rl::ReadDockingTask(args.task, args.overrides);
     const auto make_policy = [&](const rl::DockingEnv& env) { return rl::MakePolicy(args.policy, env); };
-    if (std::filesystem::path(args.output).has_parent_path()) {
-      std::filesystem::create_directories(std::filesystem::path(args.output).parent_path());
+    if (std::filesystem::path(collect.output).has_parent_path()) {
+      std::filesystem::create_directories(std::filesystem::path(collect.output).parent_path());
     }
-    rl::DatasetWriter writer(args.output);
+    rl::DatasetWriter writer(collect.output);
     const Clock::time_point start = Clock::now();
     // in batches, so that memory holds a batch's transitions and not the whole set's
     const int batch = 16 * args.threads;
@@ -137,8 +139,8 @@ int RlCollect(const RlCollectArgs& args) {
                 static_cast<long long>(writer.size()), Seconds(start));
     std::printf("  success %.1f %% (crash %d, separation %d, timeout %d)\n", 100.0 * summary.success_rate,
                 summary.crashes, summary.separations, summary.timeouts);
-    std::printf("  written to %s (%.1f MiB, D4RL layout)\n", args.output.c_str(),
-                std::filesystem::file_size(args.output) / 1048576.0);
+    std::printf("  written to %s (%.1f MiB, D4RL layout)\n", collect.output.c_str(),
+                std::filesystem::file_size(collect.output) / 1048576.0);
     return 0;
   });
 }
