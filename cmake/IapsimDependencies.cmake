@@ -22,6 +22,12 @@ pkg_check_modules(BULLET REQUIRED IMPORTED_TARGET bullet-float64)
 
 # gencpp needs Debian's python (the pyenv python on PATH has no ROS modules)
 set(IAPSIM_PYTHON /usr/bin/python3 CACHE FILEPATH "Python with python3-genmsg and python3-gencpp")
+# pybind11 for the RL environments' Python module (rl/python_module.cc), built for that same Debian python
+set(PYBIND11_FINDPYTHON ON)
+set(Python_EXECUTABLE ${IAPSIM_PYTHON})
+find_package(pybind11 CONFIG REQUIRED)
+# libtorch 1.13 (CPU): the learned policies (rl/torchscript_policy.h)
+find_package(Torch REQUIRED)
 
 # ROS1 serialization and bag storage. Their catkin CMake configs run ament's python at configure
 # time, so the libraries are located directly instead (see shared NOTES).

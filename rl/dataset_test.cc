@@ -10,6 +10,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "rl/docking_expert.h"
 #include "rl/docking_task.h"
 #include "tests/support/test_folder.h"
 
@@ -19,8 +20,8 @@ namespace {
 std::vector<EpisodeResult> TwoShortEpisodes() {
   const DockingTaskConfig task = ReadDockingTask(std::string(IAPSIM_SOURCE_DIR) + "/configs/rl/docking.yaml",
                                                  {"termination.max_steps=50"});
-  return RunEpisodes(task, [](const DockingEnv& env) { return MakePolicy("expert", env); }, 2, 9, 1,
-                     {0, 0, true});
+  return RunEpisodes(task, [](const DockingEnv& env) { return std::make_unique<DockingExpert>(env); }, 2, 9,
+                     1, {0, 0, true});
 }
 
 std::string ErrorOf(const std::string& path) {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "rl/docking_expert.h"
 #include "rl/docking_task.h"
 
 namespace iapsim::rl {
@@ -18,7 +19,7 @@ DockingTaskConfig ShortTask() {
 }
 
 TEST(RunEpisodes, GiveTheSameEpisodesOnAnyNumberOfThreads) {
-  const PolicyFactory expert = [](const DockingEnv& env) { return MakePolicy("expert", env); };
+  const PolicyFactory expert = [](const DockingEnv& env) { return std::make_unique<DockingExpert>(env); };
   const std::vector<EpisodeResult> one = RunEpisodes(ShortTask(), expert, 5, 3, 1, {0, 2, false});
   const std::vector<EpisodeResult> two = RunEpisodes(ShortTask(), expert, 5, 3, 2, {0, 2, false});
   ASSERT_EQ(one.size(), 5u);
@@ -41,7 +42,6 @@ TEST(RunEpisodes, APolicysFailureIsAnExceptionOfTheCaller) {
   };
   const PolicyFactory broken = [](const DockingEnv&) { return std::make_unique<NotFinite>(); };
   EXPECT_THROW(RunEpisodes(ShortTask(), broken, 4, 1, 2), std::invalid_argument);
-  EXPECT_THROW(MakePolicy("ppo.pt", DockingEnv(ShortTask())), std::invalid_argument);
 }
 
 TEST(Summarize, CountsOutcomesAndTakesTheDockingStepsOfTheSuccesses) {

@@ -1,9 +1,7 @@
 #pragma once
-// What acts in the docking environment: the rule-based expert, and (next) the learned policies. One
-// policy object serves one environment's episodes; Reset() comes at every episode's start.
-
-#include <memory>
-#include <string>
+// What acts in the docking environment: the rule-based expert (rl/docking_expert.h) and the learned
+// policies (rl/torchscript_policy.h, which also has MakePolicy). One policy object serves one environment's
+// episodes; Reset() comes at every episode's start.
 
 #include "rl/docking_env.h"
 
@@ -17,9 +15,5 @@ class Policy {
   /// The action for this observation.
   virtual Action Act(const Observation& observation) = 0;
 };
-
-/// The policy called `name` for `env`'s task: "expert" (rl/docking_expert.h). Throws std::invalid_argument
-/// naming the choices for anything else.
-std::unique_ptr<Policy> MakePolicy(const std::string& name, const DockingEnv& env);
 
 }  // namespace iapsim::rl

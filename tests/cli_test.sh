@@ -82,6 +82,7 @@ grep -q "2 episodes .* 80 transitions" "$work/collect.out" || fail "rl collect: 
 grep -q "success        0.0 %" "$work/eval.out" || fail "rl eval: $(cat "$work/eval.out")"
 grep -q '"timeouts": 2' "$work/eval/summary.json" || fail "rl eval: $(cat "$work/eval/summary.json")"
 [ "$(wc -l < "$work/eval/traces.csv")" -eq 81 ] || fail "rl eval traces: $(wc -l < "$work/eval/traces.csv") lines"
+[ -s "$work/eval/docking.png" ] || fail "rl eval drew no docking.png"
 set +e
 "$iapsim" rl eval --task "$src/configs/rl/docking.yaml" --episodes 1 --set reward.bonus=1 2> "$work/rl_bad.err"
 code=$?

@@ -105,34 +105,6 @@ int BenchFidelity(const std::string& vehicle_path, nlohmann::json* report);
 /// and where one thread's time goes (policy, physics in the air and in contact, the rest of the environment).
 int BenchRl(const std::string& task_file, nlohmann::json* report);
 
-/// What `iapsim rl eval` and `collect` fly: episodes e = 0 .. episodes − 1 of a task, each from the stream
-/// (seed, e), with a policy.
-struct RlEpisodeArgs {
-  std::string task = "configs/rl/docking.yaml";
-  std::string policy = "expert";
-  int episodes = 200;
-  uint64_t seed = 1;
-  int threads = 2;
-  std::vector<std::string> overrides;  // --set KEY=VALUE on the task
-};
-
-struct RlEvalArgs {
-  RlEpisodeArgs episodes;
-  std::string out_dir;      // summary.json, episodes.csv, traces.csv; empty: print only
-  int trace_episodes = 10;  // episodes whose d_xz, d_y and f_y are written step by step
-};
-/// Flies `episodes` randomised docking episodes with a policy and prints its success rate and steps to
-/// dock (seed §VI-H). Exit 2 on a bad task or policy.
-int RlEval(const RlEvalArgs& args);
-
-struct RlCollectArgs {
-  RlEpisodeArgs episodes;
-  std::string output;  // the HDF5 data set
-};
-/// Flies `episodes` episodes with a policy and writes their transitions as an HDF5 data set in D4RL's layout
-/// (rl/dataset.h). Exit 2 on a bad task or policy, 1 when the file cannot be written.
-int RlCollect(const RlCollectArgs& args);
-
 struct BenchArgs {
   std::string what = "all";  // bus, physics, render, record, fidelity, rl or all
   std::string vehicle = "configs/vehicles/three_star.yaml";

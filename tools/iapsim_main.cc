@@ -1,27 +1,36 @@
 // iapsim: the one command-line program. Each subcommand lives in tools/commands.cc or tools/bench_*.cc.
 
-#include <CLI/CLI.hpp>
-#include <iostream>
+#include <unistd.h>
 
+#include <CLI/CLI.hpp>
+#include <cerrno>
+#include <cstring>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "bridge/launcher.h"
 #include "tools/commands.h"
 
 namespace {
 
-// The options `iapsim rl eval` and `collect` share.
-void AddEpisodeOptions(CLI::App* command, iapsim::tools::RlEpisodeArgs* args) {
-  command->add_option("--task", args->task, "task YAML (default configs/rl/docking.yaml)")
-      ->check(CLI::ExistingFile);
-  command->add_option("--policy", args->policy, "expert (default)");
-  command->add_option("--episodes", args->episodes, "episodes (default 200)")->check(CLI::Range(1, 10000000));
-  command->add_option("--seed", args->seed, "episode e starts from the stream (seed, e) (default 1)");
-  command->add_option("--threads", args->threads, "threads (default 2)")->check(CLI::Range(1, 1024));
-  command->add_option("--set", args->overrides, "override a task key: KEY=VALUE (repeatable)");
+// `iapsim rl ...` becomes the iapsim_rl program beside this one (tools/rl_commands.h says why), with the
+// same arguments, output and exit code.
+int ExecRl(int argc, char** argv) {
+  const std::string program = iapsim::bridge::ExecutableDir() + "/iapsim_rl";
+  std::vector<char*> args = {const_cast<char*>(program.c_str())};
+  for (int i = 2; i < argc; ++i) args.push_back(argv[i]);
+  args.push_back(nullptr);
+  ::execv(program.c_str(), args.data());
+  std::cerr << "iapsim: cannot start " << program << ": " << std::strerror(errno) << std::endl;
+  return 1;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace iapsim::tools;
+  if (argc > 1 && std::string(argv[1]) == "rl") return ExecRl(argc, argv);
   CLI::App app("iapsim: a multi-process simulator for Integrated Aerial Platforms");
   app.require_subcommand(1);
 
@@ -135,22 +144,9 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   bench_cmd->add_option("--json", bench.json, "also write the figures to this JSON file");
 
-  auto* rl_cmd = app.add_subcommand("rl", "the air-docking learning task (seed section VI-H)");
-  rl_cmd->require_subcommand(1);
-  RlEvalArgs rl_eval;
-  auto* rl_eval_cmd =
-      rl_cmd->add_subcommand("eval", "fly randomised docking episodes with a policy, print its success");
-  AddEpisodeOptions(rl_eval_cmd, &rl_eval.episodes);
-  rl_eval_cmd->add_option("--out", rl_eval.out_dir, "write summary.json, episodes.csv and traces.csv here");
-  rl_eval_cmd
-      ->add_option("--trace", rl_eval.trace_episodes,
-                   "episodes traced step by step in traces.csv (default 10)")
-      ->check(CLI::Range(0, 1000000));
-  RlCollectArgs rl_collect;
-  auto* rl_collect_cmd = rl_cmd->add_subcommand(
-      "collect", "fly episodes with a policy, write their transitions as HDF5 (D4RL layout)");
-  rl_collect_cmd->add_option("output", rl_collect.output, "the data set file (.hdf5)")->required();
-  AddEpisodeOptions(rl_collect_cmd, &rl_collect.episodes);
+  // listed for --help; `iapsim rl ...` never gets here (ExecRl)
+  app.add_subcommand(
+      "rl", "the air-docking learning task (seed section VI-H): eval, collect; see iapsim rl --help");
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -165,8 +161,6 @@ int main(int argc, char** argv) {
     if (*echo_cmd) return Echo(echo);
     if (*urdf_cmd) return Urdf(urdf_vehicle, urdf_output);
     if (*bench_cmd) return Bench(bench);
-    if (*rl_eval_cmd) return RlEval(rl_eval);
-    if (*rl_collect_cmd) return RlCollect(rl_collect);
   } catch (const std::exception& e) {
     std::cerr << "iapsim: " << e.what() << std::endl;
     return 1;

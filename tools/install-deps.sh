@@ -19,8 +19,11 @@ packages=(
   # rendering: OSMesa (llvmpipe), EGL and GL headers, libdeflate for PNG encoding, decoding and video through OpenCV
   libosmesa6-dev libegl-dev libgl-dev libdeflate-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev
-  # learning (rl/): HDF5 for the offline data sets (D4RL's layout), h5py to read them in Python
-  libhdf5-dev python3-h5py
+  # learning (rl/): HDF5 for the offline data sets (D4RL's layout), h5py to read them in Python, pybind11
+  # for the environments' Python module
+  libhdf5-dev python3-h5py pybind11-dev python3-dev
+  # libtorch (CPU) for the learned policies
+  libtorch-dev
   # tests and benchmarks (MuJoCo: the reference beside iapsim in `iapsim bench physics`)
   libgtest-dev libgmock-dev libbenchmark-dev libmujoco-dev
 )
