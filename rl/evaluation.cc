@@ -85,6 +85,7 @@ EvaluationSummary Summarize(const std::vector<EpisodeResult>& results) {
   summary.episodes = static_cast<int>(results.size());
   std::vector<double> docked;
   for (const EpisodeResult& result : results) {
+    summary.steps += result.steps;
     summary.return_mean += result.episode_return / std::max<size_t>(results.size(), 1);
     switch (result.outcome) {
       case Outcome::kSuccess:

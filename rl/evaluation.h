@@ -51,6 +51,7 @@ struct EpisodeOptions {
 
 struct EvaluationSummary {
   int episodes = 0;
+  int64_t steps = 0;  // control steps over all episodes
   int successes = 0, crashes = 0, separations = 0, timeouts = 0;
   double success_rate = 0.0;
   // over the successful episodes: the control step at which the latch closed

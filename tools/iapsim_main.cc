@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <iostream>
 #include <string>
@@ -21,6 +22,9 @@ int ExecRl(int argc, char** argv) {
   std::vector<char*> args = {const_cast<char*>(program.c_str())};
   for (int i = 2; i < argc; ++i) args.push_back(argv[i]);
   args.push_back(nullptr);
+  // libtorch's BLAS (OpenBLAS, tools/install-deps.sh) starts a thread per core for every product, on top of
+  // libtorch's and the environments' threads: one BLAS thread trains TD3-BC 2.5x faster here
+  ::setenv("OPENBLAS_NUM_THREADS", "1", /*overwrite=*/0);
   ::execv(program.c_str(), args.data());
   std::cerr << "iapsim: cannot start " << program << ": " << std::strerror(errno) << std::endl;
   return 1;

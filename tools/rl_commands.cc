@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -45,10 +46,20 @@ void WriteEpisodes(const std::vector<rl::EpisodeResult>& results, const std::str
   }
 }
 
-// Runs a command's body: a bad task or policy is exit 2, a file that cannot be written exit 1, each with the
-// command's name and the reason.
-template <typename Body>
-int Guarded(const char* command, Body body) {
+}  // namespace
+
+nlohmann::json SummaryJson(const rl::EvaluationSummary& summary) {
+  return {{"episodes", summary.episodes},
+          {"success_rate", summary.success_rate},
+          {"crashes", summary.crashes},
+          {"separations", summary.separations},
+          {"timeouts", summary.timeouts},
+          {"docked_step_mean", summary.docked_step_mean},
+          {"docked_step_p95", summary.docked_step_p95},
+          {"return_mean", summary.return_mean}};
+}
+
+int RunRlCommand(const char* command, const std::function<int()>& body) {
   try {
     return body();
   } catch (const bridge::ConfigError& error) {
@@ -63,11 +74,32 @@ int Guarded(const char* command, Body body) {
   }
 }
 
-}  // namespace
+std::vector<rl::EpisodeResult> CollectDataset(const RlEpisodeArgs& args, const std::string& output) {
+  const rl::DockingTaskConfig task = rl::ReadDockingTask(args.task, args.overrides);
+  const auto make_policy = [&](const rl::DockingEnv& env) { return rl::MakePolicy(args.policy, env); };
+  if (std::filesystem::path(output).has_parent_path()) {
+    std::filesystem::create_directories(std::filesystem::path(output).parent_path());
+  }
+  rl::DatasetWriter writer(output);
+  // in batches, so that memory holds a batch's transitions and not the whole set's
+  const int batch = 16 * args.threads;
+  std::vector<rl::EpisodeResult> episodes;
+  for (int first = 0; first < args.episodes; first += batch) {
+    std::vector<rl::EpisodeResult> results = rl::RunEpisodes(
+        task, make_policy, std::min(batch, args.episodes - first), args.seed, args.threads, {first, 0, true});
+    for (rl::EpisodeResult& result : results) {
+      writer.Append(result.transitions);
+      result.transitions = rl::Transitions();
+      episodes.push_back(std::move(result));
+    }
+  }
+  writer.Close({args.task, task.scenario, args.policy, args.seed, args.episodes, task.control_rate_hz});
+  return episodes;
+}
 
 int RlEval(const RlEvalArgs& eval) {
   const RlEpisodeArgs& args = eval.episodes;
-  return Guarded("eval", [&] {
+  return RunRlCommand("eval", [&] {
     const rl::DockingTaskConfig task = rl::ReadDockingTask(args.task, args.overrides);
     const auto make_policy = [&](const rl::DockingEnv& env) { return rl::MakePolicy(args.policy, env); };
     const Clock::time_point start = Clock::now();
@@ -75,11 +107,9 @@ int RlEval(const RlEvalArgs& eval) {
         task, make_policy, args.episodes, args.seed, args.threads, {0, eval.trace_episodes, false});
     const double wall_s = Seconds(start);
     const rl::EvaluationSummary summary = rl::Summarize(results);
-    int steps = 0;
-    for (const rl::EpisodeResult& result : results) steps += result.steps;
     std::printf("policy %s on %s: %d episodes from seed %llu (%.1f s, %.0f control steps/s)\n",
                 args.policy.c_str(), args.task.c_str(), summary.episodes,
-                static_cast<unsigned long long>(args.seed), wall_s, steps / wall_s);
+                static_cast<unsigned long long>(args.seed), wall_s, summary.steps / wall_s);
     std::printf("  success      %5.1f %%  (%d; crash %d, separation %d, timeout %d)\n",
                 100.0 * summary.success_rate, summary.successes, summary.crashes, summary.separations,
                 summary.timeouts);
@@ -92,17 +122,10 @@ int RlEval(const RlEvalArgs& eval) {
     std::printf("  return       %.1f mean\n", summary.return_mean);
     if (!eval.out_dir.empty()) {
       WriteEpisodes(results, eval.out_dir);
-      nlohmann::json json = {{"policy", args.policy},
-                             {"task", args.task},
-                             {"episodes", summary.episodes},
-                             {"seed", args.seed},
-                             {"success_rate", summary.success_rate},
-                             {"crashes", summary.crashes},
-                             {"separations", summary.separations},
-                             {"timeouts", summary.timeouts},
-                             {"docked_step_mean", summary.docked_step_mean},
-                             {"docked_step_p95", summary.docked_step_p95},
-                             {"return_mean", summary.return_mean}};
+      nlohmann::json json = SummaryJson(summary);
+      json["policy"] = args.policy;
+      json["task"] = args.task;
+      json["seed"] = args.seed;
       std::ofstream(eval.out_dir + "/summary.json") << json.dump(2) << "\n";
       const bool plotted =
           RunPlotScript(IAPSIM_PLOT_DOCKING, {eval.out_dir, args.policy + " on " + args.task});
@@ -115,32 +138,12 @@ int RlEval(const RlEvalArgs& eval) {
 
 int RlCollect(const RlCollectArgs& collect) {
   const RlEpisodeArgs& args = collect.episodes;
-  return Guarded("collect", [&] {
-    const rl::DockingTaskConfig task = rl::ReadDockingTask(args.task, args.overrides);
-    const auto make_policy = [&](const rl::DockingEnv& env) { return rl::MakePolicy(args.policy, env); };
-    if (std::filesystem::path(collect.output).has_parent_path()) {
-      std::filesystem::create_directories(std::filesystem::path(collect.output).parent_path());
-    }
-    rl::DatasetWriter writer(collect.output);
+  return RunRlCommand("collect", [&] {
     const Clock::time_point start = Clock::now();
-    // in batches, so that memory holds a batch's transitions and not the whole set's
-    const int batch = 16 * args.threads;
-    std::vector<rl::EpisodeResult> episodes;
-    for (int first = 0; first < args.episodes; first += batch) {
-      std::vector<rl::EpisodeResult> results =
-          rl::RunEpisodes(task, make_policy, std::min(batch, args.episodes - first), args.seed, args.threads,
-                          {first, 0, true});
-      for (rl::EpisodeResult& result : results) {
-        writer.Append(result.transitions);
-        result.transitions = rl::Transitions();
-        episodes.push_back(std::move(result));
-      }
-    }
-    writer.Close({args.task, task.scenario, args.policy, args.seed, args.episodes, task.control_rate_hz});
-    const rl::EvaluationSummary summary = rl::Summarize(episodes);
+    const rl::EvaluationSummary summary = rl::Summarize(CollectDataset(args, collect.output));
     std::printf("%d episodes of %s with %s from seed %llu: %lld transitions in %.1f s\n", args.episodes,
                 args.task.c_str(), args.policy.c_str(), static_cast<unsigned long long>(args.seed),
-                static_cast<long long>(writer.size()), Seconds(start));
+                static_cast<long long>(summary.steps), Seconds(start));
     std::printf("  success %.1f %% (crash %d, separation %d, timeout %d)\n", 100.0 * summary.success_rate,
                 summary.crashes, summary.separations, summary.timeouts);
     std::printf("  written to %s (%.1f MiB, D4RL layout)\n", collect.output.c_str(),

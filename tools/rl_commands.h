@@ -4,8 +4,12 @@
 // other `iapsim` command should pay. Each returns the process exit code.
 
 #include <cstdint>
+#include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
+
+#include "rl/evaluation.h"
 
 namespace iapsim::tools {
 
@@ -36,5 +40,32 @@ struct RlCollectArgs {
 /// Flies `episodes` episodes with a policy and writes their transitions as an HDF5 data set in D4RL's layout
 /// (rl/dataset.h). Exit 2 on a bad task or policy, 1 when the file cannot be written.
 int RlCollect(const RlCollectArgs& args);
+
+// Shared by the commands:
+
+/// Runs a command's body: a bad task, policy or argument is exit 2, a file that cannot be read or written
+/// exit 1, each printed with the command's name and the reason.
+int RunRlCommand(const char* command, const std::function<int()>& body);
+
+/// An evaluation's figures, as summary.json holds them.
+nlohmann::json SummaryJson(const rl::EvaluationSummary& summary);
+
+/// Flies the episodes of `args` and writes their transitions to `output` (rl/dataset.h); returns the
+/// episodes without their transitions.
+std::vector<rl::EpisodeResult> CollectDataset(const RlEpisodeArgs& args, const std::string& output);
+
+struct RlTrainArgs {
+  std::string out_dir;  // expert/ (data.hdf5, summary.json) and td3bc/ (checkpoint, log, policy, curves)
+  std::string stage = "all";  // expert, td3bc or all
+  RlEpisodeArgs expert;       // the task, seed, threads, and how many expert episodes make the data set
+  int64_t td3bc_steps = 20000;
+  double td3bc_alpha = 2.5;   // TD3-BC's α: the Q term's weight against behaviour cloning (0: pure cloning)
+  int64_t eval_every = 2000;  // updates between evaluations (and checkpoints)
+  int eval_episodes = 50;     // from the stream (seed + 1, e): the same starts at every evaluation
+};
+/// The seed's offline pipeline (§IV-E, Fig. 7): the expert's data set, then TD3-BC on it, evaluated and
+/// checkpointed every `eval_every` updates; a stage whose output exists resumes (expert: kept; TD3-BC: from
+/// its checkpoint). Writes a CSV log, curves (PNG) and the policy as TorchScript. Exit 2 on bad input.
+int RlTrain(const RlTrainArgs& args);
 
 }  // namespace iapsim::tools

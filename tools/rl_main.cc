@@ -1,6 +1,7 @@
 // iapsim_rl: the commands of `iapsim rl` (tools/rl_commands.h), which `iapsim rl ...` execs.
 //   iapsim rl eval [--policy expert|FILE.pt] [--episodes N] ... [--out DIR]
 //   iapsim rl collect FILE.hdf5 [--policy expert|FILE.pt] [--episodes N] ...
+//   iapsim rl train DIR [--stage expert|td3bc|all] [--td3bc-steps N] ...
 
 #include <CLI/CLI.hpp>
 
@@ -41,7 +42,33 @@ int main(int argc, char** argv) {
   collect_cmd->add_option("output", collect.output, "the data set file (.hdf5)")->required();
   AddEpisodeOptions(collect_cmd, &collect.episodes);
 
+  RlTrainArgs train;
+  auto* train_cmd = app.add_subcommand("train", "the offline pipeline: the expert's data set, then TD3-BC");
+  train_cmd->add_option("out_dir", train.out_dir, "where the stages write and resume from")->required();
+  train_cmd->add_option("--stage", train.stage, "expert, td3bc or all (default)")
+      ->check(CLI::IsMember({"expert", "td3bc", "all"}));
+  train_cmd->add_option("--task", train.expert.task, "task YAML (default configs/rl/docking.yaml)")
+      ->check(CLI::ExistingFile);
+  train_cmd->add_option("--set", train.expert.overrides, "override a task key: KEY=VALUE (repeatable)");
+  train_cmd->add_option("--seed", train.expert.seed,
+                        "data set episodes from (seed, e), evaluations from (seed + 1, e)");
+  train_cmd->add_option("--threads", train.expert.threads, "threads (default 2)")->check(CLI::Range(1, 1024));
+  train_cmd->add_option("--expert-episodes", train.expert.episodes, "episodes of the data set (default 200)")
+      ->check(CLI::Range(1, 10000000));
+  train_cmd->add_option("--td3bc-steps", train.td3bc_steps, "TD3-BC updates in all (default 20000)")
+      ->check(CLI::Range(int64_t{0}, int64_t{1} << 40));
+  train_cmd
+      ->add_option("--td3bc-alpha", train.td3bc_alpha, "TD3-BC's alpha (default 2.5; 0: behaviour cloning)")
+      ->check(CLI::Range(0.0, 1e6));
+  train_cmd
+      ->add_option("--eval-every", train.eval_every,
+                   "updates between evaluations and checkpoints (default 2000)")
+      ->check(CLI::Range(int64_t{1}, int64_t{1} << 40));
+  train_cmd->add_option("--eval-episodes", train.eval_episodes, "episodes per evaluation (default 50)")
+      ->check(CLI::Range(1, 1000000));
+
   CLI11_PARSE(app, argc, argv);
   if (*eval_cmd) return RlEval(eval);
+  if (*train_cmd) return RlTrain(train);
   return RlCollect(collect);
 }
