@@ -214,6 +214,7 @@ void DatasetWriter::Close(const DatasetAttributes& attributes) {
   WriteNumberAttribute(file, "seed", H5T_NATIVE_UINT64, &attributes.seed);
   WriteNumberAttribute(file, "episodes", H5T_NATIVE_INT64, &attributes.episodes);
   WriteNumberAttribute(file, "control_rate_hz", H5T_NATIVE_DOUBLE, &attributes.control_rate_hz);
+  WriteNumberAttribute(file, "action_noise", H5T_NATIVE_DOUBLE, &attributes.action_noise);
   impl.datasets.clear();
   if (H5Fclose(impl.file.Release()) < 0) {
     throw std::runtime_error(impl.partial + ": cannot close the data set file (disk full?)");

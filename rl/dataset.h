@@ -8,8 +8,9 @@
 //   terminals          bool    [N]       timeouts           bool    [N]
 //   success            bool    [N]       (the step that made its episode a success)
 //
-// and attributes on the root: task, scenario, policy, seed, episodes, control_rate_hz, observation_layout,
-// action_layout. Booleans are HDF5 enums {FALSE, TRUE} over int8, which h5py reads as numpy bool.
+// and attributes on the root: task, scenario, policy, seed, episodes, control_rate_hz, action_noise,
+// observation_layout, action_layout. Booleans are HDF5 enums {FALSE, TRUE} over int8, which h5py reads as
+// numpy bool.
 //
 // A data set is written to PATH.partial and renamed to PATH when closed, so an interrupted collection never
 // leaves a file that looks complete.
@@ -33,6 +34,7 @@ struct DatasetAttributes {
   uint64_t seed = 0;
   int64_t episodes = 0;
   double control_rate_hz = 0.0;
+  double action_noise = 0.0;  // σ added to the policy's actions (EpisodeOptions::action_noise)
 };
 
 class DatasetWriter {

@@ -5,23 +5,33 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <random>
 #include <stdexcept>
 #include <string>
 
 #include "physics/random.h"
+#include "sensors/gaussian.h"
 
 namespace iapsim::rl {
 namespace {
 
-void RunEpisode(DockingEnv& env, Policy& policy, uint64_t seed, bool trace, bool keep_transitions,
+void RunEpisode(DockingEnv& env, Policy& policy, uint64_t seed, bool trace, const EpisodeOptions& options,
                 EpisodeResult* result) {
+  const bool keep_transitions = options.transitions;
   result->seed = seed;
   Observation observation = env.Reset(seed);
   policy.Reset();
+  // the exploration noise's own stream, next to the environment's
+  std::mt19937_64 noise_random(physics::StreamSeed(seed, 1));
   StepResult step;
   Transitions& transitions = result->transitions;
   while (!step.terminated && !step.truncated) {
-    const Action action = policy.Act(observation);
+    Action action = policy.Act(observation);
+    if (options.action_noise > 0.0) {
+      for (int i = 0; i < kActionSize; ++i)
+        action[i] += options.action_noise * sensors::StandardNormal(noise_random);
+      action = action.cwiseMax(-1.0).cwiseMin(1.0);
+    }
     if (keep_transitions) {
       transitions.observations.push_back(observation);
       transitions.actions.push_back(action);
@@ -69,8 +79,7 @@ std::vector<EpisodeResult> RunEpisodes(const DockingTaskConfig& task, const Poli
   for (int e = 0; e < episodes; ++e) {
     try {
       RunEpisode(*envs[omp_get_thread_num()], *policies[omp_get_thread_num()],
-                 physics::StreamSeed(seed, options.first + e), e < options.trace, options.transitions,
-                 &results[e]);
+                 physics::StreamSeed(seed, options.first + e), e < options.trace, options, &results[e]);
     } catch (...) {
 #pragma omp critical(iapsim_rl_episode_failure)
       if (!failure) failure = std::current_exception();

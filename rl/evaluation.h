@@ -47,6 +47,10 @@ struct EpisodeOptions {
   int first = 0;             // the first episode's index (its stream)
   int trace = 0;             // episodes traced, from the first
   bool transitions = false;  // keep every episode's transitions
+  // σ of Gaussian noise added to every action the policy takes (then clipped to [−1, 1]), from each
+  // episode's own stream: exploration around the expert for an offline data set, whose transitions hold
+  // the actions as flown
+  double action_noise = 0.0;
 };
 
 struct EvaluationSummary {

@@ -34,6 +34,35 @@ TEST(RunEpisodes, GiveTheSameEpisodesOnAnyNumberOfThreads) {
   EXPECT_EQ(one[1].trace.back().axial_error_m, two[1].trace.back().axial_error_m);
 }
 
+// Exploration noise: the actions flown and kept differ from the expert's by about σ, clipped to [−1, 1],
+// and repeat for the same seed.
+TEST(RunEpisodes, ActionNoiseExploresAroundThePolicyAndRepeats) {
+  const PolicyFactory expert = [](const DockingEnv& env) { return std::make_unique<DockingExpert>(env); };
+  const EpisodeOptions noisy{0, 0, true, 0.1};
+  const std::vector<EpisodeResult> one = RunEpisodes(ShortTask(), expert, 2, 3, 1, noisy);
+  const std::vector<EpisodeResult> two = RunEpisodes(ShortTask(), expert, 2, 3, 2, noisy);
+  const std::vector<EpisodeResult> clean = RunEpisodes(ShortTask(), expert, 2, 3, 1, {0, 0, true});
+  // the expert acting on the noisy run's observations: what it would have done
+  DockingEnv env(ShortTask());
+  DockingExpert replay(env);
+  double sum_squares = 0.0;
+  int count = 0;
+  for (int e = 0; e < 2; ++e) {
+    const Transitions& t = one[e].transitions;
+    ASSERT_EQ(t.size(), two[e].transitions.size());
+    replay.Reset();
+    for (size_t k = 0; k < t.size(); ++k) {
+      EXPECT_EQ(t.actions[k], two[e].transitions.actions[k]);
+      EXPECT_LE(t.actions[k].cwiseAbs().maxCoeff(), 1.0);
+      const Action deviation = t.actions[k] - replay.Act(t.observations[k]);
+      sum_squares += deviation.squaredNorm();
+      count += kActionSize;
+    }
+  }
+  EXPECT_NEAR(std::sqrt(sum_squares / count), 0.1, 0.005);  // 1440 draws: σ within 5 %
+  EXPECT_NE(one[0].transitions.actions[5], clean[0].transitions.actions[5]);
+}
+
 // A policy that fails in a worker thread: the evaluation throws its exception on the caller's thread.
 TEST(RunEpisodes, APolicysFailureIsAnExceptionOfTheCaller) {
   struct NotFinite : Policy {

@@ -85,15 +85,17 @@ std::vector<rl::EpisodeResult> CollectDataset(const RlEpisodeArgs& args, const s
   const int batch = 16 * args.threads;
   std::vector<rl::EpisodeResult> episodes;
   for (int first = 0; first < args.episodes; first += batch) {
-    std::vector<rl::EpisodeResult> results = rl::RunEpisodes(
-        task, make_policy, std::min(batch, args.episodes - first), args.seed, args.threads, {first, 0, true});
+    std::vector<rl::EpisodeResult> results =
+        rl::RunEpisodes(task, make_policy, std::min(batch, args.episodes - first), args.seed, args.threads,
+                        {first, 0, true, args.action_noise});
     for (rl::EpisodeResult& result : results) {
       writer.Append(result.transitions);
       result.transitions = rl::Transitions();
       episodes.push_back(std::move(result));
     }
   }
-  writer.Close({args.task, task.scenario, args.policy, args.seed, args.episodes, task.control_rate_hz});
+  writer.Close({args.task, task.scenario, args.policy, args.seed, args.episodes, task.control_rate_hz,
+                args.action_noise});
   return episodes;
 }
 

@@ -22,6 +22,7 @@ struct RlEpisodeArgs {
   uint64_t seed = 1;
   int threads = 2;
   std::vector<std::string> overrides;  // --set KEY=VALUE on the task
+  double action_noise = 0.0;           // collect: σ of exploration noise on the policy's actions
 };
 
 struct RlEvalArgs {

@@ -41,6 +41,10 @@ int main(int argc, char** argv) {
       "collect", "fly episodes with a policy, write their transitions as HDF5 (D4RL layout)");
   collect_cmd->add_option("output", collect.output, "the data set file (.hdf5)")->required();
   AddEpisodeOptions(collect_cmd, &collect.episodes);
+  collect_cmd
+      ->add_option("--action-noise", collect.episodes.action_noise,
+                   "sigma of Gaussian exploration noise on the policy's actions (default 0)")
+      ->check(CLI::Range(0.0, 10.0));
 
   RlTrainArgs train;
   auto* train_cmd = app.add_subcommand("train", "the offline pipeline: the expert's data set, then TD3-BC");
@@ -55,6 +59,10 @@ int main(int argc, char** argv) {
   train_cmd->add_option("--threads", train.expert.threads, "threads (default 2)")->check(CLI::Range(1, 1024));
   train_cmd->add_option("--expert-episodes", train.expert.episodes, "episodes of the data set (default 200)")
       ->check(CLI::Range(1, 10000000));
+  train_cmd
+      ->add_option("--expert-action-noise", train.expert.action_noise,
+                   "sigma of Gaussian exploration noise on the expert's actions in its data set (default 0)")
+      ->check(CLI::Range(0.0, 10.0));
   train_cmd->add_option("--td3bc-steps", train.td3bc_steps, "TD3-BC updates in all (default 20000)")
       ->check(CLI::Range(int64_t{0}, int64_t{1} << 40));
   train_cmd
