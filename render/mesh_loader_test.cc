@@ -11,15 +11,17 @@
 #include "bridge/config.h"
 #include "render/renderer.h"
 #include "render/scene_config.h"
+#include "tests/support/test_folder.h"
 
 namespace iapsim::render {
 namespace {
 
 namespace fs = std::filesystem;
 
-// a fresh folder per test under gtest's temporary directory
+// a fresh folder per test in the program's own temporary folder, removed with it when the program exits
 std::string Folder(const std::string& name) {
-  const fs::path dir = fs::path(::testing::TempDir()) / ("iapsim_mesh_" + name);
+  static const test_support::TestFolder root("iapsim_mesh");
+  const fs::path dir = root.path() / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir.string();
