@@ -20,8 +20,7 @@ short = ["termination.max_steps=120"]
 
 def check(condition, what):
     if not condition:
-        print("FAIL:", what)
-        sys.exit(1)
+        raise AssertionError(what)
 
 
 # 1. One expert episode from Python against the C++ program's data set of the same episode

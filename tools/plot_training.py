@@ -17,7 +17,7 @@ def main(log_path, out_path, title):
     with open(log_path) as f:
         rows = list(csv.DictReader(f))
     if not rows:
-        sys.exit(f"{log_path}: no evaluations yet")
+        raise ValueError(f"{log_path}: no evaluations yet")
     column = {key: [float(row[key]) for row in rows] for key in rows[0]}
     step = column["step"]
     fig, (success, returns, losses) = plt.subplots(1, 3, figsize=(15, 4.2))
