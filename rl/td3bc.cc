@@ -1,45 +1,18 @@
 #include "rl/td3bc.h"
 
 #include <ATen/Parallel.h>
-#include <torch/script.h>
-#include <torch/torch.h>
 
-#include <cstdio>
-#include <filesystem>
 #include <stdexcept>
+
+#include "rl/torch_networks.h"
 
 namespace iapsim::rl {
 namespace {
-
-// Three linear layers with ReLUs between them: the actor's and each critic's network.
-struct MlpImpl : torch::nn::Module {
-  MlpImpl(int64_t in, int64_t hidden, int64_t out)
-      : l0(register_module("l0", torch::nn::Linear(in, hidden))),
-        l1(register_module("l1", torch::nn::Linear(hidden, hidden))),
-        l2(register_module("l2", torch::nn::Linear(hidden, out))) {}
-  torch::Tensor forward(const torch::Tensor& x) { return l2(torch::relu(l1(torch::relu(l0(x))))); }
-  torch::nn::Linear l0, l1, l2;
-};
-TORCH_MODULE(Mlp);
-
-torch::Tensor FromRows(const RowMatrixF& rows) {
-  return torch::from_blob(const_cast<float*>(rows.data()), {rows.rows(), rows.cols()}, torch::kFloat32)
-      .clone();
-}
 
 torch::Tensor FromFlags(const std::vector<uint8_t>& flags) {
   return torch::from_blob(const_cast<uint8_t*>(flags.data()), {static_cast<int64_t>(flags.size()), 1},
                           torch::kUInt8)
       .to(torch::kFloat32);
-}
-
-// TD3-BC's normalisation, clipped at ±10 deviations (as Stable-Baselines3's VecNormalize): the contact
-// wrench is nearly always zero, and a rare contact spike would otherwise reach the critics as thousands of
-// deviations and make their targets diverge
-constexpr double kObservationClip = 10.0;
-torch::Tensor Normalise(const torch::Tensor& observations, const torch::Tensor& mean,
-                        const torch::Tensor& std) {
-  return ((observations - mean) / std).clamp(-kObservationClip, kObservationClip);
 }
 
 void SoftUpdate(const torch::nn::Module& source, torch::nn::Module& target, double tau) {
@@ -179,17 +152,12 @@ Td3BcLosses Td3Bc::UpdateOn(int64_t first) {
 void Td3Bc::Save(const std::string& path) const {
   const Impl& impl = *impl_;
   torch::serialize::OutputArchive archive;
-  const auto add_module = [&](const char* name, const torch::nn::Module& module) {
-    torch::serialize::OutputArchive part;
-    module.save(part);
-    archive.write(name, part);
-  };
-  add_module("actor", *impl.actor);
-  add_module("actor_target", *impl.actor_target);
-  add_module("critic1", *impl.critic1);
-  add_module("critic2", *impl.critic2);
-  add_module("critic1_target", *impl.critic1_target);
-  add_module("critic2_target", *impl.critic2_target);
+  WriteModule(archive, "actor", *impl.actor);
+  WriteModule(archive, "actor_target", *impl.actor_target);
+  WriteModule(archive, "critic1", *impl.critic1);
+  WriteModule(archive, "critic2", *impl.critic2);
+  WriteModule(archive, "critic1_target", *impl.critic1_target);
+  WriteModule(archive, "critic2_target", *impl.critic2_target);
   torch::serialize::OutputArchive actor_optimizer, critic_optimizer;
   impl.actor_optimizer->save(actor_optimizer);
   impl.critic_optimizer->save(critic_optimizer);
@@ -199,9 +167,7 @@ void Td3Bc::Save(const std::string& path) const {
   archive.write("std", impl.std);
   archive.write("step", torch::tensor(impl.step, torch::kLong));
   archive.write("generator", impl.generator.get_state());
-  const std::string partial = path + ".partial";
-  archive.save_to(partial);
-  std::filesystem::rename(partial, path);
+  SaveArchive(archive, path);
 }
 
 void Td3Bc::Load(const std::string& path) {
@@ -209,27 +175,12 @@ void Td3Bc::Load(const std::string& path) {
   try {
     torch::serialize::InputArchive archive;
     archive.load_from(path);
-    // libtorch's load adopts whatever shape it reads (Tensor::set_): check every parameter's
-    const auto read_module = [&](const char* name, torch::nn::Module& module) {
-      std::vector<std::vector<int64_t>> shapes;
-      for (const torch::Tensor& p : module.parameters()) shapes.push_back(p.sizes().vec());
-      torch::serialize::InputArchive part;
-      archive.read(name, part);
-      module.load(part);
-      const std::vector<torch::Tensor> loaded = module.parameters();
-      for (size_t i = 0; i < loaded.size(); ++i) {
-        if (loaded[i].sizes().vec() != shapes[i]) {
-          throw std::runtime_error(std::string(name) + "'s layers are " + std::to_string(loaded[i].size(0)) +
-                                   " wide where this learner's are " + std::to_string(shapes[i][0]));
-        }
-      }
-    };
-    read_module("actor", *impl.actor);
-    read_module("actor_target", *impl.actor_target);
-    read_module("critic1", *impl.critic1);
-    read_module("critic2", *impl.critic2);
-    read_module("critic1_target", *impl.critic1_target);
-    read_module("critic2_target", *impl.critic2_target);
+    ReadModule(archive, "actor", *impl.actor);
+    ReadModule(archive, "actor_target", *impl.actor_target);
+    ReadModule(archive, "critic1", *impl.critic1);
+    ReadModule(archive, "critic2", *impl.critic2);
+    ReadModule(archive, "critic1_target", *impl.critic1_target);
+    ReadModule(archive, "critic2_target", *impl.critic2_target);
     torch::serialize::InputArchive actor_optimizer, critic_optimizer;
     archive.read("actor_optimizer", actor_optimizer);
     archive.read("critic_optimizer", critic_optimizer);
@@ -250,26 +201,7 @@ void Td3Bc::Load(const std::string& path) {
 }
 
 void Td3Bc::ExportPolicy(const std::string& path) const {
-  const Impl& impl = *impl_;
-  torch::jit::Module policy("DockingPolicy");
-  const auto copy = [](const torch::Tensor& t) { return t.detach().clone(); };
-  policy.register_buffer("mean", copy(impl.mean));
-  policy.register_buffer("std", copy(impl.std));
-  const torch::nn::Linear layers[3] = {impl.actor->l0, impl.actor->l1, impl.actor->l2};
-  for (int i = 0; i < 3; ++i) {
-    policy.register_parameter("w" + std::to_string(i), copy(layers[i]->weight), false);
-    policy.register_parameter("b" + std::to_string(i), copy(layers[i]->bias), false);
-  }
-  policy.define(R"(
-def forward(self, observation):
-    x = torch.clamp((observation - self.mean) / self.std, -10.0, 10.0)
-    x = torch.relu(torch.matmul(x, self.w0.t()) + self.b0)
-    x = torch.relu(torch.matmul(x, self.w1.t()) + self.b1)
-    return torch.tanh(torch.matmul(x, self.w2.t()) + self.b2)
-)");
-  const std::string partial = path + ".partial";
-  policy.save(partial);
-  std::filesystem::rename(partial, path);
+  ExportActor(path, impl_->actor, impl_->mean, impl_->std);
 }
 
 }  // namespace iapsim::rl

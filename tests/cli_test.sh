@@ -83,20 +83,31 @@ grep -q "success        0.0 %" "$work/eval.out" || fail "rl eval: $(cat "$work/e
 grep -q '"timeouts": 2' "$work/eval/summary.json" || fail "rl eval: $(cat "$work/eval/summary.json")"
 [ "$(wc -l < "$work/eval/traces.csv")" -eq 81 ] || fail "rl eval traces: $(wc -l < "$work/eval/traces.csv") lines"
 [ -s "$work/eval/docking.png" ] || fail "rl eval drew no docking.png"
-# the offline pipeline in miniature: expert data, four TD3-BC updates, then two more resumed from the
-# checkpoint; its policy is evaluated as a TorchScript file
+# the pipeline in miniature: expert data, four TD3-BC updates, two PPO iterations; then each learner goes on
+# from its checkpoint; both policies are evaluated as TorchScript files
 train=(--task "$src/configs/rl/docking.yaml" --set termination.max_steps=200 --expert-episodes 2 --eval-every 2
-       --eval-episodes 1)
-"$iapsim" rl train "$work/train" "${train[@]}" --td3bc-steps 4 > "$work/train.out"
-for f in expert/data.hdf5 expert/summary.json td3bc/checkpoint.pt td3bc/policy.pt td3bc/log.csv td3bc/curves.png; do
+       --eval-episodes 1 --ppo-envs 2 --ppo-rollout-steps 20 --ppo-eval-every 1 --ppo-value-warmup 1)
+"$iapsim" rl train "$work/train" "${train[@]}" --td3bc-steps 4 --ppo-iterations 2 > "$work/train.out"
+for f in expert/data.hdf5 expert/summary.json td3bc/checkpoint.pt td3bc/policy.pt td3bc/log.csv td3bc/curves.png \
+         ppo/checkpoint.pt ppo/policy.pt ppo/log.csv ppo/curves.png; do
   [ -s "$work/train/$f" ] || fail "rl train wrote no $f: $(cat "$work/train.out")"
 done
-"$iapsim" rl train "$work/train" "${train[@]}" --td3bc-steps 6 > "$work/train.out"
+"$iapsim" rl train "$work/train" "${train[@]}" --td3bc-steps 6 --ppo-iterations 3 > "$work/train.out"
 grep -q "expert: .* is there, kept" "$work/train.out" || fail "rl train redid the expert: $(cat "$work/train.out")"
 grep -q "td3bc: resuming from .* at update 4" "$work/train.out" || fail "rl train did not resume: $(cat "$work/train.out")"
 [ "$(cut -d, -f1 "$work/train/td3bc/log.csv" | tr '\n' ' ')" = "step 2 4 6 " ] || fail "rl train log: $(cat "$work/train/td3bc/log.csv")"
-"$iapsim" rl eval --task "$src/configs/rl/docking.yaml" --policy "$work/train/td3bc/policy.pt" --episodes 1 \
-  --set termination.max_steps=20 > "$work/eval_td3bc.out" || fail "rl eval of the TD3-BC policy: $(cat "$work/eval_td3bc.out")"
+grep -q "ppo: resuming from .* at iteration 2" "$work/train.out" || fail "rl train did not resume PPO: $(cat "$work/train.out")"
+[ "$(cut -d, -f1 "$work/train/ppo/log.csv" | tr '\n' ' ')" = "iteration 1 2 3 " ] || fail "rl train PPO log: $(cat "$work/train/ppo/log.csv")"
+for policy in td3bc ppo; do
+  "$iapsim" rl eval --task "$src/configs/rl/docking.yaml" --policy "$work/train/$policy/policy.pt" --episodes 1 \
+    --set termination.max_steps=20 > "$work/eval_$policy.out" || fail "rl eval of the $policy policy: $(cat "$work/eval_$policy.out")"
+done
+set +e
+"$iapsim" rl train "$work/train_bad" "${train[@]}" --stage ppo 2> "$work/train_bad.err"
+code=$?
+set -e
+[ $code -eq 2 ] || fail "rl train --stage ppo without a TD3-BC policy exited $code"
+grep -q "td3bc/policy.pt: no policy to start PPO from" "$work/train_bad.err" || fail "PPO without a start: $(cat "$work/train_bad.err")"
 printf 'not a module' > "$work/bad.pt"
 set +e
 "$iapsim" rl eval --task "$src/configs/rl/docking.yaml" --policy "$work/bad.pt" --episodes 1 2> "$work/bad_pt.err"

@@ -3,6 +3,7 @@
 // `iapsim rl ...` becomes: they may fly learned policies, and loading libtorch costs a process 2 s that no
 // other `iapsim` command should pay. Each returns the process exit code.
 
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "rl/evaluation.h"
+#include "rl/ppo.h"
 
 namespace iapsim::tools {
 
@@ -56,17 +58,28 @@ nlohmann::json SummaryJson(const rl::EvaluationSummary& summary);
 std::vector<rl::EpisodeResult> CollectDataset(const RlEpisodeArgs& args, const std::string& output);
 
 struct RlTrainArgs {
-  std::string out_dir;  // expert/ (data.hdf5, summary.json) and td3bc/ (checkpoint, log, policy, curves)
-  std::string stage = "all";  // expert, td3bc or all
+  std::string
+      out_dir;  // expert/ (data.hdf5, summary.json), td3bc/ and ppo/ (checkpoint, log, policy, curves)
+  std::string stage = "all";  // expert, td3bc, ppo or all
   RlEpisodeArgs expert;       // the task, seed, threads, and how many expert episodes make the data set
   int64_t td3bc_steps = 20000;
   double td3bc_alpha = 2.5;   // TD3-BC's α: the Q term's weight against behaviour cloning (0: pure cloning)
   int64_t eval_every = 2000;  // updates between evaluations (and checkpoints)
   int eval_episodes = 50;     // from the stream (seed + 1, e): the same starts at every evaluation
+  int64_t ppo_iterations = 100;
+  int ppo_envs = 8;
+  int ppo_rollout_steps = 1200;  // per environment and iteration
+  int64_t ppo_eval_every = 5;    // iterations between evaluations (and checkpoints)
+  std::string ppo_init;          // the policy PPO starts from; empty: td3bc/policy.pt
+  double ppo_actor_learning_rate = rl::PpoConfig().actor_learning_rate;
+  double ppo_initial_std = std::exp(rl::PpoConfig().initial_log_std);
+  int ppo_value_warmup = rl::PpoConfig().value_warmup_iterations;
+  double ppo_discount = rl::PpoConfig().discount;
 };
-/// The seed's offline pipeline (§IV-E, Fig. 7): the expert's data set, then TD3-BC on it, evaluated and
-/// checkpointed every `eval_every` updates; a stage whose output exists resumes (expert: kept; TD3-BC: from
-/// its checkpoint). Writes a CSV log, curves (PNG) and the policy as TorchScript. Exit 2 on bad input.
+/// The seed's offline-to-online pipeline (§IV-E, Fig. 7): the expert's data set, then TD3-BC on it, then PPO
+/// from the TD3-BC actor, each evaluated and checkpointed as it goes; a stage whose output exists resumes
+/// (expert: kept; TD3-BC and PPO: from their checkpoints). Each learner writes a CSV log, curves (PNG) and
+/// its policy as TorchScript. Exit 2 on bad input.
 int RlTrain(const RlTrainArgs& args);
 
 }  // namespace iapsim::tools

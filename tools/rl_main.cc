@@ -1,7 +1,7 @@
 // iapsim_rl: the commands of `iapsim rl` (tools/rl_commands.h), which `iapsim rl ...` execs.
 //   iapsim rl eval [--policy expert|FILE.pt] [--episodes N] ... [--out DIR]
 //   iapsim rl collect FILE.hdf5 [--policy expert|FILE.pt] [--episodes N] ...
-//   iapsim rl train DIR [--stage expert|td3bc|all] [--td3bc-steps N] ...
+//   iapsim rl train DIR [--stage expert|td3bc|ppo|all] [--td3bc-steps N] [--ppo-iterations N] ...
 
 #include <CLI/CLI.hpp>
 
@@ -47,10 +47,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 10.0));
 
   RlTrainArgs train;
-  auto* train_cmd = app.add_subcommand("train", "the offline pipeline: the expert's data set, then TD3-BC");
+  auto* train_cmd =
+      app.add_subcommand("train", "the expert's data set, then TD3-BC on it, then PPO from its actor");
   train_cmd->add_option("out_dir", train.out_dir, "where the stages write and resume from")->required();
-  train_cmd->add_option("--stage", train.stage, "expert, td3bc or all (default)")
-      ->check(CLI::IsMember({"expert", "td3bc", "all"}));
+  train_cmd->add_option("--stage", train.stage, "expert, td3bc, ppo or all (default)")
+      ->check(CLI::IsMember({"expert", "td3bc", "ppo", "all"}));
   train_cmd->add_option("--task", train.expert.task, "task YAML (default configs/rl/docking.yaml)")
       ->check(CLI::ExistingFile);
   train_cmd->add_option("--set", train.expert.overrides, "override a task key: KEY=VALUE (repeatable)");
@@ -74,6 +75,38 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(int64_t{1}, int64_t{1} << 40));
   train_cmd->add_option("--eval-episodes", train.eval_episodes, "episodes per evaluation (default 50)")
       ->check(CLI::Range(1, 1000000));
+  train_cmd->add_option("--ppo-iterations", train.ppo_iterations, "PPO iterations in all (default 100)")
+      ->check(CLI::Range(int64_t{0}, int64_t{1} << 40));
+  train_cmd->add_option("--ppo-envs", train.ppo_envs, "PPO's environments per rollout (default 8)")
+      ->check(CLI::Range(1, 100000));
+  train_cmd
+      ->add_option("--ppo-rollout-steps", train.ppo_rollout_steps,
+                   "control steps per environment and PPO iteration (default 1200)")
+      ->check(CLI::Range(2, 10000000));
+  train_cmd
+      ->add_option("--ppo-eval-every", train.ppo_eval_every,
+                   "PPO iterations between evaluations and checkpoints (default 5)")
+      ->check(CLI::Range(int64_t{1}, int64_t{1} << 40));
+  train_cmd
+      ->add_option("--ppo-actor-lr", train.ppo_actor_learning_rate,
+                   "PPO's actor learning rate (default 3e-5)")
+      ->check(CLI::Range(0.0, 1.0));
+  train_cmd
+      ->add_option("--ppo-initial-std", train.ppo_initial_std,
+                   "PPO's exploration sigma at the start, in actions of [-1, 1] (default 0.2)")
+      ->check(CLI::Range(1e-6, 10.0));
+  train_cmd
+      ->add_option("--ppo-value-warmup", train.ppo_value_warmup,
+                   "PPO iterations that fit the value network before the actor moves (default 3)")
+      ->check(CLI::Range(0, 1000000));
+  train_cmd
+      ->add_option("--ppo-discount", train.ppo_discount,
+                   "PPO's discount gamma per control step (default 0.99)")
+      ->check(CLI::Range(0.0, 1.0));
+  train_cmd
+      ->add_option("--ppo-init", train.ppo_init,
+                   "the TorchScript policy PPO starts from (default DIR/td3bc/policy.pt)")
+      ->check(CLI::ExistingFile);
 
   CLI11_PARSE(app, argc, argv);
   if (*eval_cmd) return RlEval(eval);

@@ -5,8 +5,13 @@
 //   DIR/td3bc/checkpoint.pt                 learner, targets, optimisers, step (rl/td3bc.h)
 //   DIR/td3bc/log.csv, curves.png           losses and evaluations per `eval_every` updates (Fig. 19(a))
 //   DIR/td3bc/policy.pt                     the actor as TorchScript, for `iapsim rl eval --policy`
+//   DIR/ppo/checkpoint.pt                   PPO from td3bc/policy.pt (rl/ppo.h): networks, σ, optimisers
+//   DIR/ppo/log.csv, curves.png             rollouts and updates per iteration, evaluations every
+//                                           `ppo_eval_every` iterations (Fig. 19(a))
+//   DIR/ppo/policy.pt                       the deterministic actor as TorchScript
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +20,7 @@
 
 #include "rl/dataset.h"
 #include "rl/evaluation.h"
+#include "rl/ppo.h"
 #include "rl/td3bc.h"
 #include "rl/torchscript_policy.h"
 #include "tools/plot_script.h"
@@ -26,8 +32,11 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-constexpr const char* kLogHeader =
+constexpr const char* kTd3BcLogHeader =
     "step,critic_loss,actor_loss,behaviour_loss,q_mean,success_rate,docked_step_mean,return_mean,wall_s";
+constexpr const char* kPpoLogHeader =
+    "iteration,env_steps,episodes,rollout_success_rate,rollout_return_mean,policy_loss,value_loss,approx_kl,"
+    "clip_fraction,explained_variance,std_mean,epochs,success_rate,docked_step_mean,return_mean,wall_s";
 
 void ExpertStage(const RlTrainArgs& args, const fs::path& dir) {
   const fs::path data = dir / "data.hdf5";
@@ -45,15 +54,24 @@ void ExpertStage(const RlTrainArgs& args, const fs::path& dir) {
               std::chrono::duration<double>(Clock::now() - start).count(), data.c_str());
 }
 
-// The log's rows up to `step` (a resumed run drops what came after its checkpoint).
-std::string LogUpTo(const fs::path& log, int64_t step) {
+// Starts `log` afresh, or keeps its rows up to `step` (a resumed run drops what came after its checkpoint).
+void StartLog(const fs::path& log, const char* header, int64_t step) {
   std::ifstream in(log);
-  std::string line, kept = std::string(kLogHeader) + "\n";
+  std::string line, kept = std::string(header) + "\n";
   std::getline(in, line);  // the header
   while (std::getline(in, line)) {
     if (!line.empty() && std::stoll(line.substr(0, line.find(','))) <= step) kept += line + "\n";
   }
-  return kept;
+  in.close();
+  std::ofstream(log) << kept;
+}
+
+// Flies the evaluation episodes (from the stream (seed + 1, e): the same starts every time) with a policy.
+rl::EvaluationSummary Evaluate(const RlTrainArgs& args, const rl::DockingTaskConfig& task,
+                               const std::string& policy) {
+  return rl::Summarize(rl::RunEpisodes(
+      task, [&](const rl::DockingEnv& env) { return rl::MakePolicy(policy, env); }, args.eval_episodes,
+      args.expert.seed + 1, args.expert.threads));
 }
 
 void Td3BcStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& data_file) {
@@ -73,11 +91,7 @@ void Td3BcStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& da
     std::printf("td3bc: resuming from %s at update %lld\n", checkpoint.c_str(),
                 static_cast<long long>(learner.step()));
   }
-  {
-    const std::string kept =
-        fs::exists(log_file) ? LogUpTo(log_file, learner.step()) : std::string(kLogHeader) + "\n";
-    std::ofstream(log_file) << kept;
-  }
+  StartLog(log_file, kTd3BcLogHeader, learner.step());
   std::printf("td3bc: %lld transitions, %lld updates, evaluating %d episodes every %lld\n",
               static_cast<long long>(data.size()), static_cast<long long>(args.td3bc_steps),
               args.eval_episodes, static_cast<long long>(args.eval_every));
@@ -96,10 +110,7 @@ void Td3BcStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& da
       mean.q_mean += losses.q_mean / chunk;
     }
     learner.ExportPolicy(policy.string());
-    const std::string policy_path = policy.string();
-    const rl::EvaluationSummary summary = rl::Summarize(rl::RunEpisodes(
-        task, [&](const rl::DockingEnv& env) { return rl::MakePolicy(policy_path, env); }, args.eval_episodes,
-        args.expert.seed + 1, args.expert.threads));
+    const rl::EvaluationSummary summary = Evaluate(args, task, policy.string());
     const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
     std::ofstream(log_file, std::ios::app)
         << learner.step() << "," << mean.critic << "," << mean.actor << "," << mean.behaviour << ","
@@ -112,24 +123,102 @@ void Td3BcStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& da
     std::fflush(stdout);
   }
   const bool plotted =
+      learner.step() > 0 &&
       RunPlotScript(IAPSIM_PLOT_TRAINING, {log_file.string(), (dir / "curves.png").string(), "TD3-BC"});
   std::printf("td3bc: %s, %s%s\n", policy.c_str(), log_file.c_str(), plotted ? ", curves.png" : "");
+}
+
+void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& td3bc_dir) {
+  const std::string initial = args.ppo_init.empty() ? (td3bc_dir / "policy.pt").string() : args.ppo_init;
+  if (!fs::exists(initial)) {
+    throw std::invalid_argument(initial +
+                                ": no policy to start PPO from; run --stage td3bc first or pass --ppo-init");
+  }
+  const rl::DockingTaskConfig task = rl::ReadDockingTask(args.expert.task, args.expert.overrides);
+  rl::PpoConfig config;
+  config.envs = args.ppo_envs;
+  config.rollout_steps = args.ppo_rollout_steps;
+  config.minibatch = args.ppo_rollout_steps;
+  config.actor_learning_rate = args.ppo_actor_learning_rate;
+  config.initial_log_std = std::log(args.ppo_initial_std);
+  config.value_warmup_iterations = args.ppo_value_warmup;
+  config.discount = args.ppo_discount;
+  config.seed = args.expert.seed;
+  config.threads = args.expert.threads;
+  rl::Ppo learner(task, config, initial);
+  const fs::path checkpoint = dir / "checkpoint.pt", log_file = dir / "log.csv", policy = dir / "policy.pt";
+  if (fs::exists(checkpoint)) {
+    learner.Load(checkpoint.string());
+    std::printf("ppo: resuming from %s at iteration %lld\n", checkpoint.c_str(),
+                static_cast<long long>(learner.iteration()));
+  }
+  StartLog(log_file, kPpoLogHeader, learner.iteration());
+  std::printf(
+      "ppo: from %s, %d environments x %d steps per iteration, %lld iterations, evaluating %d episodes "
+      "every %lld\n",
+      initial.c_str(), config.envs, config.rollout_steps, static_cast<long long>(args.ppo_iterations),
+      args.eval_episodes, static_cast<long long>(args.ppo_eval_every));
+  std::printf("  %9s %9s %9s %8s %6s %8s %6s %7s %8s %9s %7s\n", "iteration", "episodes", "rollout", "value",
+              "expl.", "kl", "clip", "sigma", "success", "docked", "wall");
+  const Clock::time_point start = Clock::now();
+  while (learner.iteration() < args.ppo_iterations) {
+    const rl::PpoStats stats = learner.Iterate();
+    std::ofstream log(log_file, std::ios::app);
+    log << stats.iteration << "," << stats.env_steps << "," << stats.episodes << ",";
+    char rollout[16] = "        -";
+    if (stats.episodes > 0) {  // no episode ended in the rollout: nothing to say about success
+      const double rate = double(stats.successes) / stats.episodes;
+      log << rate << "," << stats.return_mean;
+      std::snprintf(rollout, sizeof rollout, "%8.0f%%", 100.0 * rate);
+    } else {
+      log << ",";
+    }
+    log << "," << stats.policy_loss << "," << stats.value_loss << "," << stats.approx_kl << ","
+        << stats.clip_fraction << "," << stats.explained_variance << "," << stats.std_mean << ","
+        << stats.epochs << ",";
+    std::string evaluated = "        -         -";
+    if (stats.iteration % args.ppo_eval_every == 0 || stats.iteration == args.ppo_iterations) {
+      learner.ExportPolicy(policy.string());
+      const rl::EvaluationSummary summary = Evaluate(args, task, policy.string());
+      log << summary.success_rate << "," << summary.docked_step_mean << "," << summary.return_mean;
+      learner.Save(checkpoint.string());
+      char text[64];
+      std::snprintf(text, sizeof text, "%7.0f%% %9.0f", 100.0 * summary.success_rate,
+                    summary.docked_step_mean);
+      evaluated = text;
+    } else {
+      log << ",,";
+    }
+    const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+    log << "," << wall_s << "\n";
+    std::printf("  %9lld %9d %s %8.3g %6.2f %8.3g %6.2f %7.3f %s %6.0fs\n",
+                static_cast<long long>(stats.iteration), stats.episodes, rollout, stats.value_loss,
+                stats.explained_variance, stats.approx_kl, stats.clip_fraction, stats.std_mean,
+                evaluated.c_str(), wall_s);
+    std::fflush(stdout);
+  }
+  const bool plotted =
+      learner.iteration() > 0 &&
+      RunPlotScript(IAPSIM_PLOT_TRAINING, {log_file.string(), (dir / "curves.png").string(), "PPO"});
+  std::printf("ppo: %s, %s%s\n", policy.c_str(), log_file.c_str(), plotted ? ", curves.png" : "");
 }
 
 }  // namespace
 
 int RlTrain(const RlTrainArgs& args) {
   return RunRlCommand("train", [&] {
-    if (args.stage != "expert" && args.stage != "td3bc" && args.stage != "all") {
-      throw std::invalid_argument("--stage: expected expert, td3bc or all, got '" + args.stage + "'");
+    if (args.stage != "expert" && args.stage != "td3bc" && args.stage != "ppo" && args.stage != "all") {
+      throw std::invalid_argument("--stage: expected expert, td3bc, ppo or all, got '" + args.stage + "'");
     }
     const fs::path out(args.out_dir);
     fs::create_directories(out / "expert");
     fs::create_directories(out / "td3bc");
+    fs::create_directories(out / "ppo");
     if (args.stage == "expert" || args.stage == "all") ExpertStage(args, out / "expert");
     if (args.stage == "td3bc" || args.stage == "all") {
       Td3BcStage(args, out / "td3bc", out / "expert" / "data.hdf5");
     }
+    if (args.stage == "ppo" || args.stage == "all") PpoStage(args, out / "ppo", out / "td3bc");
     return 0;
   });
 }

@@ -1,0 +1,185 @@
+// PPO: GAE on hand-made rollouts, updates that fit one fixed rollout, a start that is exactly the initial
+// policy, checkpoints that resume exactly, and clear errors for a bad initial policy or checkpoint.
+#include "rl/ppo.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+
+#include "rl/torch_networks.h"
+#include "rl/torchscript_policy.h"
+#include "tests/support/test_folder.h"
+
+namespace iapsim::rl {
+namespace {
+
+DockingTaskConfig ShortTask() {
+  // 50-step episodes: a 64-step rollout ends each by truncation and starts the next
+  return ReadDockingTask(std::string(IAPSIM_SOURCE_DIR) + "/configs/rl/docking.yaml",
+                         {"termination.max_steps=50"});
+}
+
+// A small actor as TD3-BC would export it: random weights, an identity normalisation.
+std::string InitialPolicy(const test_support::TestFolder& folder) {
+  torch::manual_seed(5);
+  const std::string path = (folder.path() / "initial.pt").string();
+  ExportActor(path, Mlp(kObservationSize, 32, kActionSize), torch::zeros({1, kObservationSize}),
+              torch::ones({1, kObservationSize}));
+  return path;
+}
+
+PpoConfig Small() {
+  PpoConfig config;
+  config.envs = 2;
+  config.rollout_steps = 64;
+  config.minibatch = 64;
+  config.epochs = 2;
+  config.value_hidden = 32;
+  config.value_warmup_iterations = 1;
+  return config;
+}
+
+// Two environments, three steps, γ = 0.5, λ = 1 (GAE is then the discounted return minus the value):
+// environment 0 ends at step 1, so its steps 0 and 1 see nothing of step 2; environment 1 runs on and is
+// bootstrapped with its last value.
+TEST(Ppo, GeneralizedAdvantagesStopAtEpisodeEndsAndBootstrapTheRest) {
+  const std::vector<float> rewards = {1, 2, 3, 4, 5, 6};
+  const std::vector<float> values = {0.5, 1, 0, 0, 0.25, 2};
+  const std::vector<float> ended = {0, 0, 1, 0, 0, 0};
+  const std::vector<float> advantages = GeneralizedAdvantages(rewards, values, ended, {10, 8}, 0.5, 1.0);
+  // environment 0: returns 1 + 0.5·3 = 2.5 (step 0), 3 (step 1), 5 + 0.5·10 = 10 (step 2)
+  EXPECT_FLOAT_EQ(advantages[0], 2.5 - 0.5);
+  EXPECT_FLOAT_EQ(advantages[2], 3.0 - 0.0);
+  EXPECT_FLOAT_EQ(advantages[4], 10.0 - 0.25);
+  // environment 1: returns 6 + 0.5·8 = 10 (step 2), 4 + 0.5·10 = 9 (step 1), 2 + 0.5·9 = 6.5 (step 0)
+  EXPECT_FLOAT_EQ(advantages[5], 10.0 - 2.0);
+  EXPECT_FLOAT_EQ(advantages[3], 9.0 - 0.0);
+  EXPECT_FLOAT_EQ(advantages[1], 6.5 - 1.0);
+  // λ = 0: one-step TD errors
+  const std::vector<float> td = GeneralizedAdvantages(rewards, values, ended, {10, 8}, 0.5, 0.0);
+  EXPECT_FLOAT_EQ(td[0], 1.0 + 0.5 * 0.0 - 0.5);
+  EXPECT_FLOAT_EQ(td[2], 3.0 - 0.0);
+  EXPECT_THROW(GeneralizedAdvantages(rewards, values, {0, 0}, {10, 8}, 0.5, 1.0), std::invalid_argument);
+}
+
+// Repeated updates on one rollout: the value network fits its returns, and the clipped surrogate falls from
+// zero (the ratio is 1 and advantages are normalised at the first) as the policy leans to better actions.
+TEST(Ppo, UpdatesLowerTheLossesOnAFixedRollout) {
+  test_support::TestFolder folder("ppo_fit");
+  PpoConfig config = Small();
+  config.value_warmup_iterations = 0;
+  config.target_kl = 0.0;
+  config.epochs = 1;
+  config.minibatch = 128;
+  config.actor_learning_rate = 1e-3;
+  config.value_learning_rate = 1e-3;
+  Ppo learner(ShortTask(), config, InitialPolicy(folder));
+  const std::shared_ptr<Ppo::Rollout> rollout = learner.Collect();
+  const PpoStats first = learner.Update(*rollout);
+  PpoStats last;
+  for (int k = 0; k < 40; ++k) last = learner.Update(*rollout);
+  std::printf("value loss %.3g -> %.3g, surrogate %.3g -> %.3g, clipped %.2f\n", first.value_loss,
+              last.value_loss, first.policy_loss, last.policy_loss, last.clip_fraction);
+  EXPECT_EQ(first.episodes, 2);  // each environment's 50-step episode ended in the 64 steps
+  EXPECT_NEAR(first.policy_loss, 0.0, 1e-5);
+  EXPECT_LT(last.policy_loss, -0.05);
+  EXPECT_LT(last.value_loss, 0.2 * first.value_loss);
+  EXPECT_GT(last.clip_fraction, 0.0);
+  EXPECT_EQ(last.iteration, 41);
+}
+
+TEST(Ppo, StartsAsTheInitialPolicyAndWarmsUpTheValueFirst) {
+  test_support::TestFolder folder("ppo_start");
+  const std::string initial = InitialPolicy(folder);
+  Ppo learner(ShortTask(), Small(), initial);
+  const std::string exported = (folder.path() / "exported.pt").string();
+  learner.ExportPolicy(exported);
+  TorchScriptPolicy before(initial), after(exported);
+  Observation observation = Observation::LinSpaced(-1.0, 1.0);
+  EXPECT_EQ(before.Act(observation), after.Act(observation));
+  const PpoStats warmup = learner.Iterate();  // value_warmup_iterations = 1: the actor stays
+  EXPECT_FALSE(warmup.actor_updated);
+  learner.ExportPolicy(exported);
+  EXPECT_EQ(TorchScriptPolicy(exported).Act(observation), before.Act(observation));
+  const PpoStats tuned = learner.Iterate();
+  EXPECT_TRUE(tuned.actor_updated);
+  learner.ExportPolicy(exported);
+  EXPECT_NE(TorchScriptPolicy(exported).Act(observation), before.Act(observation));
+  EXPECT_EQ(tuned.env_steps, 2 * 2 * 64);
+  EXPECT_NEAR(tuned.std_mean, std::exp(-1.6), 0.01);  // log σ moved a little from its start
+}
+
+TEST(Ppo, ACheckpointResumesTrainingExactly) {
+  test_support::TestFolder folder("ppo_checkpoint");
+  const std::string initial = InitialPolicy(folder);
+  const std::string path = (folder.path() / "checkpoint.pt").string();
+  Ppo trained(ShortTask(), Small(), initial);
+  trained.Iterate();
+  trained.Iterate();
+  trained.Save(path);
+  Ppo resumed(ShortTask(), Small(), initial);
+  resumed.Load(path);
+  EXPECT_EQ(resumed.iteration(), 2);
+  for (int k = 0; k < 2; ++k) {
+    const PpoStats a = trained.Iterate(), b = resumed.Iterate();
+    EXPECT_EQ(a.policy_loss, b.policy_loss) << k;
+    EXPECT_EQ(a.value_loss, b.value_loss) << k;
+    EXPECT_EQ(a.return_mean, b.return_mean) << k;
+    EXPECT_EQ(a.env_steps, b.env_steps) << k;
+  }
+}
+
+TEST(Ppo, ABadInitialPolicyOrCheckpointIsAnErrorNamingTheFile) {
+  test_support::TestFolder folder("ppo_bad");
+  const std::string initial = InitialPolicy(folder);
+  const auto start_error = [&](const std::string& path) -> std::string {
+    try {
+      Ppo learner(ShortTask(), Small(), path);
+    } catch (const std::invalid_argument& error) {
+      return error.what();
+    }
+    return "no error";
+  };
+  EXPECT_NE(start_error(folder.Write("text.pt", "no module")).find("text.pt: not a TorchScript policy"),
+            std::string::npos);
+  torch::jit::Module linear("LinearPolicy");  // a policy TorchScriptPolicy flies, but no exported MLP
+  linear.register_parameter("weight", torch::zeros({kActionSize, kObservationSize}), false);
+  linear.define("def forward(self, observation):\n    return torch.matmul(observation, self.weight.t())\n");
+  const std::string linear_path = (folder.path() / "linear.pt").string();
+  linear.save(linear_path);
+  EXPECT_NE(
+      start_error(linear_path).find("linear.pt: not a policy `iapsim rl train` exported (it has no tensor"),
+      std::string::npos)
+      << start_error(linear_path);
+  const std::string narrow = (folder.path() / "narrow.pt").string();
+  ExportActor(narrow, Mlp(kObservationSize - 1, 32, kActionSize), torch::zeros({1, kObservationSize}),
+              torch::ones({1, kObservationSize}));
+  EXPECT_NE(start_error(narrow).find("narrow.pt: 'w0' has shape [32, 47], expected [32, 48]"),
+            std::string::npos)
+      << start_error(narrow);
+
+  Ppo learner(ShortTask(), Small(), initial);
+  const auto load_error = [&](const std::string& path) -> std::string {
+    try {
+      learner.Load(path);
+    } catch (const std::runtime_error& error) {
+      return error.what();
+    }
+    return "no error";
+  };
+  EXPECT_NE(load_error(folder.Write("damaged.pt", "no archive")).find("damaged.pt: not a PPO checkpoint"),
+            std::string::npos);
+  PpoConfig wider = Small();
+  wider.value_hidden = 16;
+  const std::string other = (folder.path() / "other.pt").string();
+  Ppo(ShortTask(), wider, initial).Save(other);
+  EXPECT_NE(load_error(other).find("other.pt: not a PPO checkpoint of this shape"), std::string::npos)
+      << load_error(other);
+  PpoConfig no_envs = Small();
+  no_envs.envs = 0;
+  EXPECT_THROW(Ppo(ShortTask(), no_envs, initial), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace iapsim::rl
