@@ -65,6 +65,7 @@ struct Ppo::Impl {
   PpoConfig config;
   std::unique_ptr<VectorEnv> envs;
   Mlp actor{nullptr}, value{nullptr};
+  Mlp anchor{nullptr};  // the initial actor, frozen
   torch::Tensor log_std, mean, std;
   std::unique_ptr<torch::optim::Adam> actor_optimizer, value_optimizer;
   at::Generator generator;
@@ -92,6 +93,7 @@ Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::stri
   Require(config.threads >= 1, "threads", "at least 1");
   Require(config.clip > 0.0, "clip", "positive");
   Require(config.reward_scale > 0.0, "reward_scale", "positive");
+  Require(config.anchor_coefficient >= 0.0, "anchor_coefficient", "at least 0");
   Require(config.discount > 0.0 && config.discount <= 1.0, "discount", "in (0, 1]");
   Require(config.gae_lambda >= 0.0 && config.gae_lambda <= 1.0, "gae_lambda", "in [0, 1]");
   Impl& impl = *impl_;
@@ -100,6 +102,8 @@ Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::stri
   impl.actor = start.actor;
   impl.mean = start.mean;
   impl.std = start.std;
+  impl.anchor = ReadActor(initial_policy).actor;
+  for (torch::Tensor& p : impl.anchor->parameters()) p.requires_grad_(false);
   torch::manual_seed(config.seed);  // the value network's initial weights
   impl.value = Mlp(kObservationSize, config.value_hidden, 1);
   impl.log_std = torch::full({kActionSize}, config.initial_log_std, torch::kFloat32).requires_grad_();
@@ -207,17 +211,18 @@ PpoStats Ppo::Update(const Rollout& rollout) {
         const torch::Tensor a = rollout.actions.index_select(0, rows);
         torch::Tensor advantage = rollout.advantages.index_select(0, rows);
         advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8);
+        const torch::Tensor mean = impl.Mean(s);
         const torch::Tensor log_ratio =
-            LogProbability(a, impl.Mean(s), impl.log_std) - rollout.log_probs.index_select(0, rows);
+            LogProbability(a, mean, impl.log_std) - rollout.log_probs.index_select(0, rows);
         const torch::Tensor ratio = log_ratio.exp();
-        double kl = 0.0;
+        torch::Tensor anchor_mean;
+        double kl = 0.0, clipped = 0.0;
         {
           torch::NoGradGuard no_grad;
           kl = ((ratio - 1.0) - log_ratio).mean().item<double>();
-          stats.clip_fraction += ((ratio - 1.0).abs() > c.clip).to(torch::kFloat32).mean().item<double>();
+          clipped = ((ratio - 1.0).abs() > c.clip).to(torch::kFloat32).mean().item<double>();
+          anchor_mean = torch::tanh(impl.anchor->forward(s));
         }
-        stats.approx_kl += kl;
-        ++actor_batches;
         if (c.target_kl > 0.0 && kl > 1.5 * c.target_kl) {  // the policy moved far enough: stop here
           stop = true;
           break;
@@ -225,12 +230,19 @@ PpoStats Ppo::Update(const Rollout& rollout) {
         const torch::Tensor surrogate =
             -torch::min(ratio * advantage, ratio.clamp(1.0 - c.clip, 1.0 + c.clip) * advantage).mean();
         const torch::Tensor entropy = (impl.log_std + 0.5 + kLogSqrt2Pi).sum();
-        const torch::Tensor actor_loss = surrogate - c.entropy_coefficient * entropy;
+        const torch::Tensor anchor_kl =
+            ((mean - anchor_mean).pow(2) / (2.0 * (2.0 * impl.log_std.detach()).exp())).sum(-1).mean();
+        const torch::Tensor actor_loss =
+            surrogate - c.entropy_coefficient * entropy + c.anchor_coefficient * anchor_kl;
         impl.actor_optimizer->zero_grad();
         actor_loss.backward();
         torch::nn::utils::clip_grad_norm_(impl.ActorParameters(), c.max_grad_norm);
         impl.actor_optimizer->step();
+        ++actor_batches;
         stats.policy_loss += surrogate.item<double>();
+        stats.anchor_kl += anchor_kl.item<double>();
+        stats.approx_kl += kl;
+        stats.clip_fraction += clipped;
       }
       const torch::Tensor value_loss = torch::mse_loss(impl.Value(s), rollout.returns.index_select(0, rows));
       impl.value_optimizer->zero_grad();
@@ -245,6 +257,7 @@ PpoStats Ppo::Update(const Rollout& rollout) {
   if (actor_batches > 0) {
     stats.policy_loss /= actor_batches;
     stats.approx_kl /= actor_batches;
+    stats.anchor_kl /= actor_batches;
     stats.clip_fraction /= actor_batches;
   }
   {
@@ -270,6 +283,7 @@ void Ppo::Save(const std::string& path) const {
   torch::serialize::OutputArchive archive;
   WriteModule(archive, "actor", *impl.actor);
   WriteModule(archive, "value", *impl.value);
+  WriteModule(archive, "anchor", *impl.anchor);
   archive.write("log_std", impl.log_std);
   torch::serialize::OutputArchive actor_optimizer, value_optimizer;
   impl.actor_optimizer->save(actor_optimizer);
@@ -291,6 +305,7 @@ void Ppo::Load(const std::string& path) {
     archive.load_from(path);
     ReadModule(archive, "actor", *impl.actor);
     ReadModule(archive, "value", *impl.value);
+    ReadModule(archive, "anchor", *impl.anchor);
     archive.read("log_std", impl.log_std);
     if (impl.log_std.sizes() != torch::IntArrayRef({kActionSize})) {
       throw std::runtime_error("log_std is not one per action");

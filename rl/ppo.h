@@ -44,6 +44,12 @@ struct PpoConfig {
   // per minibatch, so the actor's update does not depend on it.
   double reward_scale = 0.01;
   double entropy_coefficient = 0.0;
+  // β of a penalty β KL(π ‖ π₀) = β Σ (μ − μ₀)² / 2σ² (σ held) that anchors the actor's mean μ to the
+  // initial actor's μ₀ on the rollout's states (the policy-space form of DAPG's and Jump-Start RL's
+  // staying near the demonstrator): where the reward's gradient is weaker than the advantages' noise (the
+  // docking's 1 cm alignment), the actor would otherwise random-walk away from what the expert's data taught
+  // it. 0: plain PPO.
+  double anchor_coefficient = 0.0;
   double max_grad_norm = 0.5;
   double target_kl = 0.02;        // ≤ 0: every epoch runs
   double initial_log_std = -1.6;  // σ ≈ 0.2
@@ -66,6 +72,7 @@ struct PpoStats {
   double policy_loss = 0.0;  // clipped surrogate, negated
   double value_loss = 0.0;
   double approx_kl = 0.0;           // E[(r − 1) − log r], r the probability ratio
+  double anchor_kl = 0.0;           // KL(π ‖ π₀) to the initial actor, per sample
   double clip_fraction = 0.0;       // share of samples with |r − 1| > clip
   double explained_variance = 0.0;  // of the returns by the rollout's values
   double std_mean = 0.0;            // mean σ of the actions after the update

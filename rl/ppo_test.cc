@@ -89,6 +89,31 @@ TEST(Ppo, UpdatesLowerTheLossesOnAFixedRollout) {
   EXPECT_EQ(last.iteration, 41);
 }
 
+// The anchor's penalty holds the actor's mean near the initial actor's while the surrogate pulls it away.
+TEST(Ppo, TheAnchorHoldsTheActorNearItsStart) {
+  test_support::TestFolder folder("ppo_anchor");
+  const std::string initial = InitialPolicy(folder);
+  double drift[2] = {0.0, 0.0};
+  for (const int anchored : {0, 1}) {
+    PpoConfig config = Small();
+    config.value_warmup_iterations = 0;
+    config.target_kl = 0.0;
+    config.actor_learning_rate = 1e-3;
+    config.anchor_coefficient = anchored ? 4.0 : 0.0;
+    config.epochs = 1;
+    config.minibatch = 128;  // one minibatch per update
+    Ppo learner(ShortTask(), config, initial);
+    const std::shared_ptr<Ppo::Rollout> rollout = learner.Collect();
+    const PpoStats first = learner.Update(*rollout);
+    EXPECT_NEAR(first.anchor_kl, 0.0, 1e-6);  // the first minibatch acts as the initial actor
+    PpoStats last;
+    for (int k = 0; k < 20; ++k) last = learner.Update(*rollout);
+    drift[anchored] = last.anchor_kl;
+  }
+  std::printf("KL to the initial actor after 21 updates: %.3g plain, %.3g anchored\n", drift[0], drift[1]);
+  EXPECT_LT(drift[1], 0.5 * drift[0]);
+}
+
 TEST(Ppo, StartsAsTheInitialPolicyAndWarmsUpTheValueFirst) {
   test_support::TestFolder folder("ppo_start");
   const std::string initial = InitialPolicy(folder);

@@ -75,6 +75,7 @@ struct RlTrainArgs {
   double ppo_initial_std = std::exp(rl::PpoConfig().initial_log_std);
   int ppo_value_warmup = rl::PpoConfig().value_warmup_iterations;
   double ppo_discount = rl::PpoConfig().discount;
+  double ppo_anchor = rl::PpoConfig().anchor_coefficient;
 };
 /// The seed's offline-to-online pipeline (§IV-E, Fig. 7): the expert's data set, then TD3-BC on it, then PPO
 /// from the TD3-BC actor, each evaluated and checkpointed as it goes; a stage whose output exists resumes

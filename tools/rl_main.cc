@@ -104,6 +104,10 @@ int main(int argc, char** argv) {
                    "PPO's discount gamma per control step (default 0.99)")
       ->check(CLI::Range(0.0, 1.0));
   train_cmd
+      ->add_option("--ppo-anchor", train.ppo_anchor,
+                   "PPO's weight on the KL to its initial actor (default 0: plain PPO)")
+      ->check(CLI::Range(0.0, 1e6));
+  train_cmd
       ->add_option("--ppo-init", train.ppo_init,
                    "the TorchScript policy PPO starts from (default DIR/td3bc/policy.pt)")
       ->check(CLI::ExistingFile);

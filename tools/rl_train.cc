@@ -36,6 +36,7 @@ constexpr const char* kTd3BcLogHeader =
     "step,critic_loss,actor_loss,behaviour_loss,q_mean,success_rate,docked_step_mean,return_mean,wall_s";
 constexpr const char* kPpoLogHeader =
     "iteration,env_steps,episodes,rollout_success_rate,rollout_return_mean,policy_loss,value_loss,approx_kl,"
+    "anchor_kl,"
     "clip_fraction,explained_variance,std_mean,epochs,success_rate,docked_step_mean,return_mean,wall_s";
 
 void ExpertStage(const RlTrainArgs& args, const fs::path& dir) {
@@ -143,6 +144,7 @@ void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& td3b
   config.initial_log_std = std::log(args.ppo_initial_std);
   config.value_warmup_iterations = args.ppo_value_warmup;
   config.discount = args.ppo_discount;
+  config.anchor_coefficient = args.ppo_anchor;
   config.seed = args.expert.seed;
   config.threads = args.expert.threads;
   rl::Ppo learner(task, config, initial);
@@ -174,8 +176,8 @@ void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& td3b
       log << ",";
     }
     log << "," << stats.policy_loss << "," << stats.value_loss << "," << stats.approx_kl << ","
-        << stats.clip_fraction << "," << stats.explained_variance << "," << stats.std_mean << ","
-        << stats.epochs << ",";
+        << stats.anchor_kl << "," << stats.clip_fraction << "," << stats.explained_variance << ","
+        << stats.std_mean << "," << stats.epochs << ",";
     std::string evaluated = "        -         -";
     if (stats.iteration % args.ppo_eval_every == 0 || stats.iteration == args.ppo_iterations) {
       learner.ExportPolicy(policy.string());
