@@ -57,6 +57,7 @@ SubAircraftSetpoint FromCommand(const iapsim_msgs::SubAircraftCommand& command, 
   setpoint.w_WS_S = FromMsg(command.body_rate_S);
   setpoint.thrust_W_N = FromMsg(command.thrust_W);
   setpoint.torque_S_Nm = FromMsg(command.torque_S);
+  setpoint.angular_acceleration_S_radps2 = FromMsg(command.angular_acceleration_S);
   return setpoint;
 }
 

@@ -56,10 +56,12 @@ const char* OutcomeName(Outcome outcome) {
   return "?";
 }
 
-DockingEnv::DockingEnv(const DockingTaskConfig& config) : config_(config) {
-  const physics::PhysicsConfig physics =
-      physics::LoadScenarioPhysics(config.scenario, config.scenario_overrides);
-  world_ = physics.simulation;
+DockingEnv::DockingEnv(const DockingTaskConfig& config)
+    : DockingEnv(config,
+                 physics::LoadScenarioPhysics(config.scenario, config.scenario_overrides).simulation) {}
+
+DockingEnv::DockingEnv(const DockingTaskConfig& config, const physics::SimulationConfig& scenario_world)
+    : config_(config), world_(scenario_world) {
   const auto fail = [&](const std::string& what) {
     throw bridge::ConfigError(config.file + ": scenario " + config.scenario + ": " + what);
   };
@@ -155,7 +157,9 @@ Observation DockingEnv::Reset(uint64_t seed) {
 
 Observation DockingEnv::Reset() {
   StartEpisode();
-  return Observe();
+  QuadrotorState states[2];
+  CurrentStates(states);
+  return Observe(states, contact_wrench_, random_);
 }
 
 void DockingEnv::StartEpisode() {
@@ -181,44 +185,62 @@ void DockingEnv::StartEpisode() {
     spec.initial_rotors = physics::InitialRotors::kHover;
   }
   simulation_ = std::make_unique<physics::Simulation>(episode);
-  step_ = 0;
-  docked_step_ = -1;
-  hover_steps_ = 0;
+  progress_ = EpisodeProgress();
   done_ = false;
   contact_wrench_.setZero();
   terms_ = RewardTerms();
 }
 
-Observation DockingEnv::Observe() {
+void DockingEnv::CurrentStates(QuadrotorState (&states)[2]) const {
+  for (int i = 0; i < 2; ++i) {
+    const physics::BodyState& body =
+        simulation_->world().body(simulation_->output(vehicle_[i]).platform_body);
+    states[i] = {body.p_WB_m, body.q_WB, body.v_WB_W, body.w_WB_W, body.a_WB_W};
+  }
+}
+
+Observation DockingEnv::Observe(const QuadrotorState (&states)[2], const ContactWrench& contact_wrench,
+                                std::mt19937_64& random) const {
   const ObservationNoise& noise = config_.noise;
   Observation observation;
   for (int i = 0; i < 2; ++i) {
-    const physics::BodyState& state =
-        simulation_->world().body(simulation_->output(vehicle_[i]).platform_body);
+    const QuadrotorState& state = states[i];
     auto out = observation.segment<kObservationPerQuadrotor>(i * kObservationPerQuadrotor);
-    out.segment<3>(0) = state.p_WB_m - target_m_[i] + noise.position_m * sensors::Gaussian3(random_);
-    out.segment<3>(3) = state.v_WB_W + noise.velocity_mps * sensors::Gaussian3(random_);
-    const Eigen::Matrix3d R_WP = state.q_WB.toRotationMatrix() *
-                                 Rotation(noise.attitude_deg * kDegToRad * sensors::Gaussian3(random_));
+    out.segment<3>(0) = state.p_WP_m - target_m_[i] + noise.position_m * sensors::Gaussian3(random);
+    out.segment<3>(3) = state.v_WP_W_mps + noise.velocity_mps * sensors::Gaussian3(random);
+    const Eigen::Matrix3d R_WP =
+        state.q_WP.toRotationMatrix() * Rotation(noise.attitude_deg * kDegToRad * sensors::Gaussian3(random));
     for (int row = 0; row < 3; ++row) out.segment<3>(6 + 3 * row) = R_WP.row(row).transpose();
     out.segment<3>(15) =
-        state.q_WB.conjugate() * state.w_WB_W + noise.rate_radps * sensors::Gaussian3(random_);
-    out.segment<3>(18) = state.a_WB_W + noise.acceleration_mps2 * sensors::Gaussian3(random_);
+        state.q_WP.conjugate() * state.w_WP_W_radps + noise.rate_radps * sensors::Gaussian3(random);
+    out.segment<3>(18) = state.a_WP_W_mps2 + noise.acceleration_mps2 * sensors::Gaussian3(random);
   }
-  observation.tail<kContactWrenchSize>() = contact_wrench_;
+  observation.tail<kContactWrenchSize>() = contact_wrench;
   return observation;
 }
 
-bool DockingEnv::Hovering() const {
+Outcome DockingEnv::Judge(const QuadrotorState (&states)[2], bool latched, EpisodeProgress* progress) const {
   const DockingTermination& end = config_.termination;
+  ++progress->step;
+  progress->just_docked = latched && progress->docked_step < 0;
+  if (progress->just_docked) progress->docked_step = progress->step;
+  bool crashed = false, separated = false, hovering = true;
   for (int i = 0; i < 2; ++i) {
-    const physics::BodyState& state =
-        simulation_->world().body(simulation_->output(vehicle_[i]).platform_body);
-    if (state.v_WB_W.norm() > end.hover_speed_mps || Tilt_rad(state.q_WB) > end.hover_tilt_deg * kDegToRad) {
-      return false;
-    }
+    const double tilt_rad = Tilt_rad(states[i].q_WP);
+    crashed = crashed || tilt_rad > end.crash_tilt_deg * kDegToRad ||
+              (has_ground_ && ground_z_m_ - states[i].p_WP_m.z() < end.crash_height_m);
+    separated = separated || (states[i].p_WP_m - target_m_[i]).norm() > end.separation_m;
+    hovering = hovering && states[i].v_WP_W_mps.norm() <= end.hover_speed_mps &&
+               tilt_rad <= end.hover_tilt_deg * kDegToRad;
   }
-  return true;
+  progress->hover_steps = latched && hovering ? progress->hover_steps + 1 : 0;
+  if (crashed) return Outcome::kCrash;
+  if (separated) return Outcome::kSeparation;
+  if (progress->hover_steps >= std::max(1L, std::lround(end.hover_s * config_.control_rate_hz))) {
+    return Outcome::kSuccess;
+  }
+  if (progress->step >= end.max_steps) return Outcome::kTimeout;
+  return Outcome::kRunning;
 }
 
 physics::SubAircraftSetpoint DockingEnv::Setpoint(int quadrotor, const Action& action) const {
@@ -251,12 +273,15 @@ StepResult DockingEnv::Step(const Action& action, Observation* observation) {
     contact_wrench_.tail<3>() += b.external_torque_P_Nm;
   }
   contact_wrench_ /= substeps_;
-  ++step_;
 
   const physics::LatchOutput& latch = simulation_->latch_output(latch_);
+  QuadrotorState states[2];
+  CurrentStates(states);
   StepResult result;
   StepInfo& info = result.info;
-  info.step = step_;
+  info.outcome = Judge(states, latch.latched, &progress_);
+  info.step = progress_.step;
+  info.docked_step = progress_.docked_step;
   info.latched = latch.latched;
   info.axial_error_m = latch.axial_error_m;
   info.radial_error_m = latch.radial_error_m;
@@ -265,35 +290,13 @@ StepResult DockingEnv::Step(const Action& action, Observation* observation) {
 
   Eigen::Vector3d position_error_m[2];
   double attitude_error_rad[2];
-  bool crashed = false, separated = false;
-  const DockingTermination& end = config_.termination;
   for (int i = 0; i < 2; ++i) {
-    const physics::BodyState& state =
-        simulation_->world().body(simulation_->output(vehicle_[i]).platform_body);
-    position_error_m[i] = state.p_WB_m - target_m_[i];
-    attitude_error_rad[i] = Eigen::AngleAxisd(target_q_WP_.conjugate() * state.q_WB).angle();
-    crashed = crashed || Tilt_rad(state.q_WB) > end.crash_tilt_deg * kDegToRad ||
-              (has_ground_ && ground_z_m_ - state.p_WB_m.z() < end.crash_height_m);
-    separated = separated || position_error_m[i].norm() > end.separation_m;
+    position_error_m[i] = states[i].p_WP_m - target_m_[i];
+    attitude_error_rad[i] = Eigen::AngleAxisd(target_q_WP_.conjugate() * states[i].q_WP).angle();
   }
   terms_ = Reward(config_, position_error_m, attitude_error_rad, info.in_guiding_region, latch.axial_error_m,
                   latch.radial_error_m, info.contact_force_y_N);
-  if (latch.latched && docked_step_ < 0) {
-    docked_step_ = step_;
-    terms_.bonus += config_.reward.latch_bonus;
-  }
-  info.docked_step = docked_step_;
-  hover_steps_ = latch.latched && Hovering() ? hover_steps_ + 1 : 0;
-
-  if (crashed) {
-    info.outcome = Outcome::kCrash;
-  } else if (separated) {
-    info.outcome = Outcome::kSeparation;
-  } else if (hover_steps_ >= std::max(1L, std::lround(end.hover_s * config_.control_rate_hz))) {
-    info.outcome = Outcome::kSuccess;
-  } else if (step_ >= end.max_steps) {
-    info.outcome = Outcome::kTimeout;
-  }
+  if (progress_.just_docked) terms_.bonus += config_.reward.latch_bonus;
   if (info.outcome == Outcome::kSuccess) terms_.bonus += config_.reward.success_bonus;
   if (info.outcome == Outcome::kCrash || info.outcome == Outcome::kSeparation) {
     terms_.bonus -= config_.reward.failure_penalty;
@@ -303,7 +306,8 @@ StepResult DockingEnv::Step(const Action& action, Observation* observation) {
                       info.outcome == Outcome::kSeparation;
   result.truncated = info.outcome == Outcome::kTimeout;
   done_ = result.terminated || result.truncated;
-  *observation = Observe();
+  CurrentStates(states);
+  *observation = Observe(states, contact_wrench_, random_);
   return result;
 }
 

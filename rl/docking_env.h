@@ -65,6 +65,24 @@ struct StepResult {
   StepInfo info;
 };
 
+/// What the environment (or a process flying its task) knows of one quadrotor's platform, noise-free.
+struct QuadrotorState {
+  Eigen::Vector3d p_WP_m = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q_WP = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d v_WP_W_mps = Eigen::Vector3d::Zero();
+  Eigen::Vector3d w_WP_W_radps = Eigen::Vector3d::Zero();
+  Eigen::Vector3d a_WP_W_mps2 = Eigen::Vector3d::Zero();
+};
+using ContactWrench = Eigen::Matrix<double, kContactWrenchSize, 1>;
+
+/// Where an episode stands after a control step (DockingEnv::Judge).
+struct EpisodeProgress {
+  int step = 0;              // control steps into the episode
+  int docked_step = -1;      // the step at which the latch closed, or −1
+  int hover_steps = 0;       // consecutive latched steps hovering
+  bool just_docked = false;  // the latch closed at this step
+};
+
 /// The reward's terms of one step (DockingReward), each already weighted and signed.
 struct RewardTerms {
   double position = 0.0;
@@ -81,6 +99,8 @@ class DockingEnv {
   /// Reads the task's scenario physics once; throws bridge::ConfigError when the scenario lacks the task's
   /// vehicles or latch, or when they do not make a docking pair (ports facing each other, level).
   explicit DockingEnv(const DockingTaskConfig& config);
+  /// The task in `world` (a run's physics, physics::ScenarioPhysics) instead of its scenario's.
+  DockingEnv(const DockingTaskConfig& config, const physics::SimulationConfig& world);
   ~DockingEnv();
 
   /// Seeds the environment's stream and starts an episode.
@@ -104,6 +124,14 @@ class DockingEnv {
   /// The flight-controller setpoint that realises quadrotor i's part of `action` (0: A, 1: B), as Step sends
   /// it; a process that flies a policy outside the environment sends the same.
   physics::SubAircraftSetpoint Setpoint(int quadrotor, const Action& action) const;
+  /// The observation of A's and B's states and the contact wrench on B (in B's frame, averaged over the
+  /// control period), with the task's noise drawn from `random`: what Step observes, and what a process
+  /// flying the task observes from the bus.
+  Observation Observe(const QuadrotorState (&states)[2], const ContactWrench& contact_wrench,
+                      std::mt19937_64& random) const;
+  /// Advances `progress` by one control step of A's and B's noise-free states with the latch closed or not,
+  /// and returns how the episode stands by the task's termination rules (kRunning while it goes on).
+  Outcome Judge(const QuadrotorState (&states)[2], bool latched, EpisodeProgress* progress) const;
 
   /// The reward of one step from noise-free quantities (for tests and for relabelling data).
   static RewardTerms Reward(const DockingTaskConfig& config, const Eigen::Vector3d position_error_m[2],
@@ -114,8 +142,7 @@ class DockingEnv {
 
  private:
   void StartEpisode();
-  Observation Observe();
-  bool Hovering() const;
+  void CurrentStates(QuadrotorState (&states)[2]) const;
 
   DockingTaskConfig config_;
   physics::SimulationConfig world_;  // the scenario's, with A and B where it put them
@@ -134,12 +161,9 @@ class DockingEnv {
 
   std::mt19937_64 random_;
   std::unique_ptr<physics::Simulation> simulation_;
-  int step_ = 0;
-  int docked_step_ = -1;
-  int hover_steps_ = 0;
+  EpisodeProgress progress_;
   bool done_ = true;
-  Eigen::Matrix<double, kContactWrenchSize, 1> contact_wrench_ =
-      Eigen::Matrix<double, kContactWrenchSize, 1>::Zero();
+  ContactWrench contact_wrench_ = ContactWrench::Zero();
   RewardTerms terms_;
 };
 

@@ -67,6 +67,7 @@ TEST(DockingTask, BadInputNamesTheFileAndTheKey) {
   EXPECT_NE(message({"vehicle_b=c"}).find("no vehicle 'c'"), std::string::npos);
   EXPECT_NE(message({"latch=gripper"}).find("no latch 'gripper'"), std::string::npos);
   EXPECT_NE(message({"control_rate_hz=300"}).find("control_rate_hz"), std::string::npos);
+  EXPECT_NE(message({"max_acceleration_mps2=0"}).find("max_acceleration_mps2"), std::string::npos);
   // A and B swapped: the latch's cylinder is not on the vehicle that should carry it
   EXPECT_NE(message({"vehicle_a=b", "vehicle_b=a"}).find("body_a must be on vehicle 'b'"), std::string::npos);
   EXPECT_NE(message({}).find("no error"), std::string::npos);

@@ -86,7 +86,8 @@ DockingTaskConfig ReadDockingTask(const std::string& file, const std::vector<std
   map.Optional("vehicle_b", &config.vehicle_b);
   map.Optional("latch", &config.latch);
   map.OptionalInRange("control_rate_hz", &config.control_rate_hz, 1.0, 10000.0);
-  map.OptionalInRange("max_acceleration_mps2", &config.max_acceleration_mps2, 0.0, 50.0);
+  map.OptionalInRange("max_acceleration_mps2", &config.max_acceleration_mps2, 0.01,
+                      50.0);  // actions divide by it
   map.OptionalInRange("max_angular_acceleration_radps2", &config.max_angular_acceleration_radps2, 0.0, 500.0);
   ReadReset(map.Map("reset"), &config.reset);
   ReadNoise(map.Map("observation_noise"), &config.noise);

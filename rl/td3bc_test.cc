@@ -55,7 +55,9 @@ TEST(Td3Bc, UpdatesLowerTheLossesOnAFixedBatch) {
                 last.critic, with_actor.behaviour, last.behaviour);
     EXPECT_EQ(last.step, 302);
     EXPECT_LT(last.critic, 0.1 * first.critic);
-    if (alpha == 0.0) EXPECT_LT(last.behaviour, 0.1 * with_actor.behaviour);
+    if (alpha == 0.0) {
+      EXPECT_LT(last.behaviour, 0.1 * with_actor.behaviour);
+    }
   }
 }
 

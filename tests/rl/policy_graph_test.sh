@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# The docking policy in the multi-process graph (iapsim_policy, configs/scenarios/docking_approach.yaml) flies
+# as it does in the in-process environment: from the scenario's own start, noise-free, the expert's latch
+# closes at the same control step and the episode ends at the same step in both, and a bad policy parameter
+# is a configuration error that names it.
+# usage: policy_graph_test.sh BUILD_BIN_DIR SOURCE_DIR
+set -euo pipefail
+bin=$1
+src=$2
+iapsim=$bin/iapsim
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+# the task with eq. (23)'s box shrunk to the scenario's start (B 1.4 m behind A, level, at rest) and no noise
+sed -e "s|^scenario: .*|scenario: $src/configs/scenarios/docking_approach.yaml|" \
+    -e 's|b_offset_min_m: .*|b_offset_min_m: [0.0, -1.4, 0.0]|' -e 's|b_offset_max_m: .*|b_offset_max_m: [0.0, -1.4, 0.0]|' \
+    -e 's|tilt_max_deg: .*|tilt_max_deg: 0.0|' -e 's|yaw_max_deg: .*|yaw_max_deg: 0.0|' \
+    -e 's|speed_max_mps: .*|speed_max_mps: 0.0|' -e 's|rate_max_deg_s: .*|rate_max_deg_s: 0.0|' \
+    -e 's|^  position_m: .*|  position_m: 0.0|' -e 's|^  attitude_deg: .*|  attitude_deg: 0.0|' \
+    -e 's|^  velocity_mps: .*|  velocity_mps: 0.0|' -e 's|^  rate_radps: .*|  rate_radps: 0.0|' \
+    -e 's|^  acceleration_mps2: .*|  acceleration_mps2: 0.0|' "$src/configs/rl/docking.yaml" > "$work/task.yaml"
+
+"$iapsim" rl eval --task "$work/task.yaml" --episodes 1 --threads 1 --out "$work/env" > "$work/env.out"
+# episode,seed,outcome,steps,docked_step,return
+IFS=, read -r _ _ env_outcome env_steps env_docked _ < <(sed -n 2p "$work/env/episodes.csv")
+[ "$env_outcome" = success ] || fail "the expert did not dock in the environment: $(cat "$work/env.out")"
+
+"$iapsim" run "$src/configs/scenarios/docking_approach.yaml" --set "processes.policy.params.task=$work/task.yaml" \
+  --set recording.enabled=false --out "$work/graph" > "$work/graph.out"
+read -r outcome steps docked < <(/usr/bin/python3 -c "
+import json, sys
+p = json.load(open(sys.argv[1]))['processes']['policy']['process']
+print(p['outcome'], p.get('outcome_step', -1), p.get('docked_step', -1))" "$work/graph/metrics.json")
+echo "environment: $env_outcome at step $env_steps, docked at $env_docked; graph: $outcome at step $steps, docked at $docked"
+[ "$outcome" = success ] || fail "the expert did not dock in the graph: $(cat "$work/graph/metrics.json")"
+[ "$docked" -eq "$env_docked" ] || fail "the latch closed at step $docked in the graph, $env_docked in the environment"
+[ "$steps" -eq "$env_steps" ] || fail "the episode ended at step $steps in the graph, $env_steps in the environment"
+
+set +e
+"$iapsim" run "$src/configs/scenarios/docking_approach.yaml" --set processes.policy.params.policy=nothing.pt \
+  --set recording.enabled=false --out "$work/bad" 2> "$work/bad.err" > /dev/null
+code=$?
+set -e
+[ $code -eq 2 ] || fail "a missing policy file exited $code"
+grep -q "policy: no file 'nothing.pt'" "$work/bad.err" || fail "missing policy: $(cat "$work/bad.err")"
+echo "ok"
