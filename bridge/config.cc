@@ -162,17 +162,35 @@ void ApplyOverride(YAML::Node root, const std::string& assignment, const std::st
     if (dot == std::string::npos) break;
     start = dot + 1;
   }
+  // a list's entry is named by its index (processes.physics.params.vehicles.1.position_m)
+  const auto entry = [&](const YAML::Node& list, const std::string& key) {
+    const bool digits = !key.empty() && key.find_first_not_of("0123456789") == std::string::npos;
+    if (!digits || std::stoul(key) >= list.size()) {
+      throw ConfigError(file + ": --set '" + assignment + "': '" + key + "' names no entry of a list of " +
+                        std::to_string(list.size()) + " (expected an index from 0)");
+    }
+    return std::stoul(key);
+  };
   std::vector<YAML::Node> chain{root};
   for (size_t i = 0; i + 1 < keys.size(); ++i) {
+    if (chain.back().IsSequence()) {
+      chain.push_back(chain.back()[entry(chain.back(), keys[i])]);
+      continue;
+    }
     YAML::Node next = chain.back()[keys[i]];
     if (!next.IsDefined() || next.IsNull()) next = YAML::Node(YAML::NodeType::Map);
-    if (!next.IsMap()) {
-      throw ConfigError(file + ": --set '" + assignment + "': '" + keys[i] + "' is not a map of keys");
+    if (!next.IsMap() && !next.IsSequence()) {
+      throw ConfigError(file + ": --set '" + assignment + "': '" + keys[i] +
+                        "' is not a map of keys or a list");
     }
     chain.back()[keys[i]] = next;
     chain.push_back(next);
   }
-  chain.back()[keys.back()] = value;
+  if (chain.back().IsSequence()) {
+    chain.back()[entry(chain.back(), keys.back())] = value;
+  } else {
+    chain.back()[keys.back()] = value;
+  }
 }
 
 uint64_t StepsPerPeriod(double rate_hz, double step_s) {

@@ -116,7 +116,8 @@ uint64_t StepsPerPeriod(double rate_hz, double step_s);
 /// error).
 YAML::Node LoadYamlFile(const std::string& path);
 
-/// Applies "a.b.c=value" (value parsed as YAML) onto `root`; the key path must exist unless `allow_new`.
+/// Applies "a.b.c=value" (value parsed as YAML) onto `root`; missing map keys are created (and validated with
+/// the rest of the file), a list's entry is named by its index ("vehicles.1.position_m=[0, 1, 2]").
 void ApplyOverride(YAML::Node root, const std::string& assignment, const std::string& file);
 
 }  // namespace iapsim::bridge

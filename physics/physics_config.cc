@@ -114,9 +114,18 @@ VehicleSpec ReadVehicle(YamlMap& map, const std::string& scenario_file, std::str
     spec.description = model::ParseUrdf(model::GenerateUrdf(spec.vehicle), file + " (generated URDF)");
   }
   model::OptionalVector3(map, "position_m", &spec.p_WP_m);
-  double yaw_deg = 0.0;
+  double yaw_deg = 0.0, roll_deg = 0.0, pitch_deg = 0.0;
   map.OptionalInRange("yaw_deg", &yaw_deg, -360.0, 360.0);
+  // a start moving as one rigid body (an RL episode's, eq. (23)): R_WP = Rz(yaw) Ry(pitch) Rx(roll)
+  map.OptionalInRange("roll_deg", &roll_deg, -180.0, 180.0);
+  map.OptionalInRange("pitch_deg", &pitch_deg, -90.0, 90.0);
   spec.yaw_rad = yaw_deg * kDegToRad;
+  spec.roll_rad = roll_deg * kDegToRad;
+  spec.pitch_rad = pitch_deg * kDegToRad;
+  model::OptionalVector3(map, "velocity_mps", &spec.v_WP_W_mps);
+  Eigen::Vector3d angular_velocity_deg_s = Eigen::Vector3d::Zero();
+  model::OptionalVector3(map, "angular_velocity_deg_s", &angular_velocity_deg_s);
+  spec.w_WP_W_radps = angular_velocity_deg_s * kDegToRad;
   std::string rotors = "hover";
   map.OptionalChoice("rotors", &rotors, {"hover", "idle"});
   spec.initial_rotors = rotors == "hover" ? InitialRotors::kHover : InitialRotors::kIdle;

@@ -92,6 +92,30 @@ TEST(MultibodyWorld, AVehicleStartsWithItsAttitudeAndRigidBodyTwist) {
   EXPECT_LT((platform.w_WB_W - spec.w_WP_W_radps).norm(), 1e-12);
 }
 
+// The same start written in a scenario's vehicle entry: degrees in, radians in the spec.
+TEST(MultibodyWorld, AVehicleEntryReadsTheStartsAttitudeAndTwist) {
+  const std::string vehicle_file = std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star.yaml";
+  bridge::YamlMap params(
+      YAML::Load("vehicles:\n  - {name: iap, file: " + vehicle_file +
+                 ", roll_deg: 5.7, pitch_deg: -11.5, yaw_deg: 40, velocity_mps: [0.3, -0.1, 0.2],"
+                 " angular_velocity_deg_s: [10, 20, -30]}\n"),
+      "test.yaml");
+  const VehicleSpec spec = ReadPhysicsConfig(params, "test.yaml", 0.001).simulation.vehicles.at(0);
+  EXPECT_DOUBLE_EQ(spec.roll_rad, 5.7 * M_PI / 180.0);
+  EXPECT_DOUBLE_EQ(spec.pitch_rad, -11.5 * M_PI / 180.0);
+  EXPECT_DOUBLE_EQ(spec.yaw_rad, 40.0 * M_PI / 180.0);
+  EXPECT_EQ(spec.v_WP_W_mps, Eigen::Vector3d(0.3, -0.1, 0.2));
+  EXPECT_LT((spec.w_WP_W_radps - Eigen::Vector3d(10, 20, -30) * M_PI / 180.0).norm(), 1e-15);
+  bridge::YamlMap wrong(YAML::Load("vehicles:\n  - {name: iap, file: " + vehicle_file + ", pitch_deg: 95}\n"),
+                        "test.yaml");
+  try {
+    ReadPhysicsConfig(wrong, "test.yaml", 0.001);
+    ADD_FAILURE() << "a pitch of 95 degrees was accepted";
+  } catch (const bridge::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("pitch_deg"), std::string::npos) << e.what();
+  }
+}
+
 // Gravity off, a spin-up with internal torques only, then free flight: linear and angular momentum stay
 // what they were, kinetic energy stays put, joints stay together (eq. (1) holds).
 TEST(MultibodyWorld, FreeFloatingIapConservesMomentumAndKeepsItsJoints) {

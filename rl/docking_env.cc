@@ -164,7 +164,8 @@ Observation DockingEnv::Reset() {
 
 void DockingEnv::StartEpisode() {
   const DockingReset& reset = config_.reset;
-  physics::SimulationConfig episode = world_;
+  episode_world_ = world_;
+  physics::SimulationConfig& episode = episode_world_;
   episode.seed = random_();  // the physics' own streams (sensor noise, link jitter of a realistic profile)
   Eigen::Vector3d offset_m;
   for (int axis = 0; axis < 3; ++axis) {

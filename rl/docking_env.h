@@ -114,6 +114,12 @@ class DockingEnv {
   int physics_substeps() const { return substeps_; }
   /// The simulation of the current episode.
   const physics::Simulation& simulation() const { return *simulation_; }
+  /// Quadrotor i's start in the current episode (0: A, 1: B), as a scenario's vehicle entry writes it, and
+  /// its index among the scenario's vehicles: what a run of the scenario needs to start the same episode.
+  const physics::VehicleSpec& start(int quadrotor) const {
+    return episode_world_.vehicles[vehicle_[quadrotor]];
+  }
+  int vehicle_index(int quadrotor) const { return vehicle_[quadrotor]; }
   /// The last step's reward, term by term.
   const RewardTerms& reward_terms() const { return terms_; }
   /// Targets of A's and B's platform frames, in W.
@@ -146,6 +152,7 @@ class DockingEnv {
 
   DockingTaskConfig config_;
   physics::SimulationConfig world_;  // the scenario's, with A and B where it put them
+  physics::SimulationConfig episode_world_;  // the current episode's: A and B where it starts them
   int vehicle_[2] = {0, 0};          // A's and B's index in world_.vehicles
   int latch_ = 0;
   int substeps_ = 1;

@@ -66,6 +66,20 @@ void ReadTermination(YamlMap map, DockingTermination* termination) {
 
 }  // namespace
 
+std::vector<std::string> ReadOverrides(bridge::YamlMap& map, const std::string& key) {
+  std::vector<std::string> overrides;
+  if (const YAML::Node set = map.Raw(key)) {
+    if (!set.IsSequence()) map.Fail(key, "expected a list of KEY=VALUE strings");
+    for (const YAML::Node& entry : set) {
+      if (!entry.IsScalar() || entry.Scalar().find('=') == std::string::npos) {
+        map.Fail(key, "expected KEY=VALUE strings, got '" + YAML::Dump(entry) + "'");
+      }
+      overrides.push_back(entry.Scalar());
+    }
+  }
+  return overrides;
+}
+
 DockingTaskConfig ReadDockingTask(const std::string& file, const std::vector<std::string>& overrides) {
   YAML::Node root = bridge::LoadYamlFile(file);
   for (const std::string& assignment : overrides) bridge::ApplyOverride(root, assignment, file);
@@ -73,15 +87,7 @@ DockingTaskConfig ReadDockingTask(const std::string& file, const std::vector<std
   config.file = file;
   YamlMap map(root, file);
   config.scenario = bridge::ReadFilePath(map, "scenario", file);
-  if (const YAML::Node set = map.Raw("scenario_set")) {
-    if (!set.IsSequence()) map.Fail("scenario_set", "expected a list of KEY=VALUE strings");
-    for (const YAML::Node& entry : set) {
-      if (!entry.IsScalar() || entry.Scalar().find('=') == std::string::npos) {
-        map.Fail("scenario_set", "expected KEY=VALUE strings, got '" + YAML::Dump(entry) + "'");
-      }
-      config.scenario_overrides.push_back(entry.Scalar());
-    }
-  }
+  config.scenario_overrides = ReadOverrides(map, "scenario_set");
   map.Optional("vehicle_a", &config.vehicle_a);
   map.Optional("vehicle_b", &config.vehicle_b);
   map.Optional("latch", &config.latch);

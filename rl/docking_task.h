@@ -12,6 +12,10 @@
 #include <string>
 #include <vector>
 
+namespace iapsim::bridge {
+class YamlMap;
+}
+
 namespace iapsim::rl {
 
 /// eq. (23): quadrotor B's start relative to A's (A flies from the scenario's position), uniform per axis,
@@ -99,5 +103,9 @@ struct DockingTaskConfig {
 /// resolve against the task file's folder. Throws bridge::ConfigError naming the file, the key and what was
 /// expected.
 DockingTaskConfig ReadDockingTask(const std::string& file, const std::vector<std::string>& overrides = {});
+
+/// The list of "KEY=VALUE" overrides under `key` of `map` (empty when absent); a value of another shape is a
+/// ConfigError naming the key.
+std::vector<std::string> ReadOverrides(bridge::YamlMap& map, const std::string& key);
 
 }  // namespace iapsim::rl

@@ -7,6 +7,7 @@
 //   params  task: FILE        the task (configs/rl/docking.yaml): vehicles A and B, latch, action limits,
 //                             observation noise and termination; the world is this run's physics (the
 //                             task's own scenario key is not read)
+//           task_set: [KEY=VALUE, ...]  overrides of the task's keys (as `iapsim rl eval --set`)
 //           policy: NAME      expert, or a TorchScript policy file (*.pt, relative to the scenario)
 //   subscribes  /<a>/state, /<b>/state   iapsim_msgs/IapState (the platform, and B's contact wrench)
 //               /latch                   iapsim_msgs/LatchEvent (the task's latch closing or opening)
@@ -43,7 +44,7 @@ class PolicyNode : public bridge::Process {
     params.Required("policy", &policy_name_);
     if (policy_name_ != "expert")
       policy_name_ = bridge::ReadFilePath(params, "policy", context.scenario.file);
-    DockingTaskConfig task = ReadDockingTask(task_file);
+    DockingTaskConfig task = ReadDockingTask(task_file, ReadOverrides(params, "task_set"));
     task.scenario = context.scenario.file;  // the world is this run's
     task.scenario_overrides.clear();
     if (context.self.rate_hz != 0.0) {

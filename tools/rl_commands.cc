@@ -3,6 +3,8 @@
 
 #include "tools/rl_commands.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -10,10 +12,13 @@
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 
 #include "bridge/config.h"
+#include "bridge/launcher.h"
 #include "physics/physics_config.h"
+#include "physics/random.h"
 #include "rl/dataset.h"
 #include "rl/evaluation.h"
 #include "rl/torchscript_policy.h"
@@ -28,22 +33,117 @@ double Seconds(Clock::time_point since) {
   return std::chrono::duration<double>(Clock::now() - since).count();
 }
 
+// episode,seed,outcome,steps,docked_step[,return]: an episode flown in the graph has no return (the
+// process does not see the latch's errors the reward needs)
+void WriteOutcomes(const std::vector<rl::EpisodeResult>& results, const std::string& path, bool with_return) {
+  std::ofstream episodes(path);
+  episodes << "episode,seed,outcome,steps,docked_step" << (with_return ? ",return" : "") << "\n";
+  for (size_t e = 0; e < results.size(); ++e) {
+    const rl::EpisodeResult& result = results[e];
+    episodes << e << "," << result.seed << "," << rl::OutcomeName(result.outcome) << "," << result.steps
+             << "," << result.docked_step;
+    if (with_return) episodes << "," << result.episode_return;
+    episodes << "\n";
+  }
+}
+
 void WriteEpisodes(const std::vector<rl::EpisodeResult>& results, const std::string& out_dir) {
   std::filesystem::create_directories(out_dir);
-  std::ofstream episodes(out_dir + "/episodes.csv");
-  episodes << "episode,seed,outcome,steps,docked_step,return\n";
+  WriteOutcomes(results, out_dir + "/episodes.csv", true);
   std::ofstream traces(out_dir + "/traces.csv");
   traces << "episode,step,t_s,radial_error_m,axial_error_m,contact_force_y_N,latched\n";
   for (size_t e = 0; e < results.size(); ++e) {
     const rl::EpisodeResult& result = results[e];
-    episodes << e << "," << result.seed << "," << rl::OutcomeName(result.outcome) << "," << result.steps
-             << "," << result.docked_step << "," << result.episode_return << "\n";
     for (size_t k = 0; k < result.trace.size(); ++k) {
       const rl::TracePoint& point = result.trace[k];
       traces << e << "," << k + 1 << "," << (k + 1) * 0.005 << "," << point.radial_error_m << ","
              << point.axial_error_m << "," << point.contact_force_y_N << "," << int(point.latched) << "\n";
     }
   }
+}
+
+void PrintSummary(const rl::EvaluationSummary& summary, double control_rate_hz) {
+  std::printf("  success      %5.1f %%  (%d; crash %d, separation %d, timeout %d)\n",
+              100.0 * summary.success_rate, summary.successes, summary.crashes, summary.separations,
+              summary.timeouts);
+  if (summary.successes > 0) {
+    std::printf("  docked at    step %.0f mean, %.0f p95 (%.2f s, %.2f s at %.0f Hz)\n",
+                summary.docked_step_mean, summary.docked_step_p95, summary.docked_step_mean / control_rate_hz,
+                summary.docked_step_p95 / control_rate_hz, control_rate_hz);
+  }
+}
+
+rl::Outcome OutcomeNamed(const std::string& name) {
+  for (const rl::Outcome outcome :
+       {rl::Outcome::kSuccess, rl::Outcome::kCrash, rl::Outcome::kSeparation, rl::Outcome::kTimeout}) {
+    if (name == rl::OutcomeName(outcome)) return outcome;
+  }
+  return rl::Outcome::kRunning;
+}
+
+std::string Number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", value);
+  return text;
+}
+
+std::string Vector(const Eigen::Vector3d& v, double scale = 1.0) {
+  return "[" + Number(scale * v.x()) + ", " + Number(scale * v.y()) + ", " + Number(scale * v.z()) + "]";
+}
+
+// The episodes flown again as runs of the task's scenario: each run starts A and B where the environment
+// starts episode e (its stream (seed, e)), the policy flies in iapsim_policy, and the run's report says how
+// the episode ended. Run e's folder is runs_dir/e.
+std::vector<rl::EpisodeResult> RunGraphEpisodes(const RlEpisodeArgs& args, const rl::DockingTaskConfig& task,
+                                                const std::filesystem::path& runs_dir) {
+  namespace fs = std::filesystem;
+  rl::DockingEnv env(task);
+  const std::string policy = args.policy == "expert" ? args.policy : fs::absolute(args.policy).string();
+  constexpr double kRadToDeg = 180.0 / M_PI;
+  std::vector<rl::EpisodeResult> results;
+  for (int e = 0; e < args.episodes; ++e) {
+    env.Reset(physics::StreamSeed(args.seed, e));
+    std::vector<std::string> overrides = task.scenario_overrides;
+    for (int i = 0; i < 2; ++i) {
+      const physics::VehicleSpec& start = env.start(i);
+      const std::string entry =
+          "processes.physics.params.vehicles." + std::to_string(env.vehicle_index(i)) + ".";
+      overrides.push_back(entry + "position_m=" + Vector(start.p_WP_m));
+      overrides.push_back(entry + "roll_deg=" + Number(start.roll_rad * kRadToDeg));
+      overrides.push_back(entry + "pitch_deg=" + Number(start.pitch_rad * kRadToDeg));
+      overrides.push_back(entry + "yaw_deg=" + Number(start.yaw_rad * kRadToDeg));
+      overrides.push_back(entry + "velocity_mps=" + Vector(start.v_WP_W_mps));
+      overrides.push_back(entry + "angular_velocity_deg_s=" + Vector(start.w_WP_W_radps, kRadToDeg));
+    }
+    overrides.push_back("processes.policy.params.task=" + fs::absolute(task.file).string());
+    overrides.push_back("processes.policy.params.policy=" + policy);
+    // the task's own --set, as a list of strings (JSON is YAML's flow style)
+    overrides.push_back("processes.policy.params.task_set=" + nlohmann::json(args.overrides).dump());
+    overrides.push_back("duration_s=" + Number(task.termination.max_steps / task.control_rate_hz));
+    overrides.push_back("seed=" + std::to_string(physics::StreamSeed(args.seed, e)));
+    overrides.push_back("recording.enabled=false");
+    bridge::LaunchOptions options;
+    options.scenario_path = task.scenario;
+    options.overrides = overrides;
+    options.out_dir = (runs_dir / std::to_string(e)).string();
+    options.bin_dir = bridge::ExecutableDir();
+    const bridge::LaunchResult run = bridge::Launch(options);
+    if (run.exit_code != 0) {
+      throw std::runtime_error("episode " + std::to_string(e) + " in the graph: " + run.message + " (" +
+                               options.out_dir + ")");
+    }
+    const nlohmann::json report = nlohmann::json::parse(
+        std::ifstream(options.out_dir + "/metrics.json"))["processes"]["policy"]["process"];
+    rl::EpisodeResult result;
+    result.seed = physics::StreamSeed(args.seed, e);
+    result.outcome = OutcomeNamed(report.value("outcome", ""));
+    result.steps = report.value("outcome_step", report.value("control_steps", 0));
+    result.docked_step = report.value("docked_step", -1);
+    results.push_back(result);
+    std::fprintf(stderr, "\r  graph: episode %d of %d", e + 1, args.episodes);
+  }
+  std::fprintf(stderr, "\n");
+  return results;
 }
 
 }  // namespace
@@ -112,22 +212,40 @@ int RlEval(const RlEvalArgs& eval) {
     std::printf("policy %s on %s: %d episodes from seed %llu (%.1f s, %.0f control steps/s)\n",
                 args.policy.c_str(), args.task.c_str(), summary.episodes,
                 static_cast<unsigned long long>(args.seed), wall_s, summary.steps / wall_s);
-    std::printf("  success      %5.1f %%  (%d; crash %d, separation %d, timeout %d)\n",
-                100.0 * summary.success_rate, summary.successes, summary.crashes, summary.separations,
-                summary.timeouts);
-    if (summary.successes > 0) {
-      std::printf("  docked at    step %.0f mean, %.0f p95 (%.2f s, %.2f s at %.0f Hz)\n",
-                  summary.docked_step_mean, summary.docked_step_p95,
-                  summary.docked_step_mean / task.control_rate_hz,
-                  summary.docked_step_p95 / task.control_rate_hz, task.control_rate_hz);
-    }
+    PrintSummary(summary, task.control_rate_hz);
     std::printf("  return       %.1f mean\n", summary.return_mean);
+    std::optional<rl::EvaluationSummary> graph;
+    if (eval.graph) {
+      namespace fs = std::filesystem;
+      const Clock::time_point graph_start = Clock::now();
+      const bool keep = !eval.out_dir.empty();
+      const fs::path runs_dir = keep ? fs::path(eval.out_dir) / "graph"
+                                     : fs::temp_directory_path() / ("iapsim_rl_graph_" + bridge::UtcStamp() +
+                                                                    "_" + std::to_string(::getpid()));
+      // the runs' folders go with the command unless --out keeps them, whatever ends it
+      const std::unique_ptr<const fs::path, void (*)(const fs::path*)> temporary(
+          keep ? nullptr : &runs_dir, [](const fs::path* path) { fs::remove_all(*path); });
+      const std::vector<rl::EpisodeResult> graph_results = RunGraphEpisodes(args, task, runs_dir);
+      graph = rl::Summarize(graph_results);
+      std::printf("the same starts as runs of %s, the policy in iapsim_policy (%.1f s):\n",
+                  task.scenario.c_str(), Seconds(graph_start));
+      PrintSummary(*graph, task.control_rate_hz);
+      int same = 0;
+      for (size_t e = 0; e < results.size(); ++e) same += results[e].outcome == graph_results[e].outcome;
+      std::printf("  difference   %+.1f points; %d of %d episodes end alike\n",
+                  100.0 * (graph->success_rate - summary.success_rate), same, summary.episodes);
+      if (keep) WriteOutcomes(graph_results, eval.out_dir + "/graph_episodes.csv", false);
+    }
     if (!eval.out_dir.empty()) {
       WriteEpisodes(results, eval.out_dir);
       nlohmann::json json = SummaryJson(summary);
       json["policy"] = args.policy;
       json["task"] = args.task;
       json["seed"] = args.seed;
+      if (graph) {
+        json["graph"] = SummaryJson(*graph);
+        json["graph"].erase("return_mean");
+      }
       std::ofstream(eval.out_dir + "/summary.json") << json.dump(2) << "\n";
       const bool plotted =
           RunPlotScript(IAPSIM_PLOT_DOCKING, {eval.out_dir, args.policy + " on " + args.task});

@@ -31,9 +31,11 @@ struct RlEvalArgs {
   RlEpisodeArgs episodes;
   std::string out_dir;      // summary.json, episodes.csv, traces.csv; empty: print only
   int trace_episodes = 10;  // episodes whose d_xz, d_y and f_y are written step by step
+  bool graph = false;       // also fly each episode as a run of the task's scenario (iapsim_policy)
 };
 /// Flies `episodes` randomised docking episodes with a policy and prints its success rate and steps to
-/// dock (seed §VI-H). Exit 2 on a bad task or policy.
+/// dock (seed §VI-H); with `graph`, flies the same starts again as runs of the task's scenario, the policy
+/// in the iapsim_policy process, and prints both. Exit 2 on a bad task or policy, 1 when a run fails.
 int RlEval(const RlEvalArgs& args);
 
 struct RlCollectArgs {

@@ -1,5 +1,5 @@
 // iapsim_rl: the commands of `iapsim rl` (tools/rl_commands.h), which `iapsim rl ...` execs.
-//   iapsim rl eval [--policy expert|FILE.pt] [--episodes N] ... [--out DIR]
+//   iapsim rl eval [--policy expert|FILE.pt] [--episodes N] ... [--out DIR] [--graph]
 //   iapsim rl collect FILE.hdf5 [--policy expert|FILE.pt] [--episodes N] ...
 //   iapsim rl train DIR [--stage expert|td3bc|ppo|all] [--td3bc-steps N] [--ppo-iterations N] ...
 
@@ -35,6 +35,9 @@ int main(int argc, char** argv) {
   eval_cmd
       ->add_option("--trace", eval.trace_episodes, "episodes traced step by step in traces.csv (default 10)")
       ->check(CLI::Range(0, 1000000));
+  eval_cmd->add_flag(
+      "--graph", eval.graph,
+      "also fly each start as a run of the task's scenario, the policy in iapsim_policy, and compare");
 
   RlCollectArgs collect;
   auto* collect_cmd = app.add_subcommand(

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # The docking policy in the multi-process graph (iapsim_policy, configs/scenarios/docking_approach.yaml) flies
 # as it does in the in-process environment: from the scenario's own start, noise-free, the expert's latch
-# closes at the same control step and the episode ends at the same step in both, and a bad policy parameter
-# is a configuration error that names it.
+# closes at the same control step and the episode ends at the same step in both; from eq. (23)'s random
+# starts (`iapsim rl eval --graph`), noise-free, the episodes end alike and dock within a few steps of each
+# other (the starts reach the scenario as decimal degrees); a bad policy parameter is a configuration error
+# that names it.
 # usage: policy_graph_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
 bin=$1
@@ -12,14 +14,19 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
-# the task with eq. (23)'s box shrunk to the scenario's start (B 1.4 m behind A, level, at rest) and no noise
-sed -e "s|^scenario: .*|scenario: $src/configs/scenarios/docking_approach.yaml|" \
-    -e 's|b_offset_min_m: .*|b_offset_min_m: [0.0, -1.4, 0.0]|' -e 's|b_offset_max_m: .*|b_offset_max_m: [0.0, -1.4, 0.0]|' \
-    -e 's|tilt_max_deg: .*|tilt_max_deg: 0.0|' -e 's|yaw_max_deg: .*|yaw_max_deg: 0.0|' \
-    -e 's|speed_max_mps: .*|speed_max_mps: 0.0|' -e 's|rate_max_deg_s: .*|rate_max_deg_s: 0.0|' \
-    -e 's|^  position_m: .*|  position_m: 0.0|' -e 's|^  attitude_deg: .*|  attitude_deg: 0.0|' \
-    -e 's|^  velocity_mps: .*|  velocity_mps: 0.0|' -e 's|^  rate_radps: .*|  rate_radps: 0.0|' \
-    -e 's|^  acceleration_mps2: .*|  acceleration_mps2: 0.0|' "$src/configs/rl/docking.yaml" > "$work/task.yaml"
+# the task with its observation noise off, and what else the sed expressions given say
+noise_free() {
+  sed -e "s|^scenario: .*|scenario: $src/configs/scenarios/docking_approach.yaml|" \
+      -e 's|^  position_m: .*|  position_m: 0.0|' -e 's|^  attitude_deg: .*|  attitude_deg: 0.0|' \
+      -e 's|^  velocity_mps: .*|  velocity_mps: 0.0|' -e 's|^  rate_radps: .*|  rate_radps: 0.0|' \
+      -e 's|^  acceleration_mps2: .*|  acceleration_mps2: 0.0|' "$@" "$src/configs/rl/docking.yaml"
+}
+
+# eq. (23)'s box shrunk to the scenario's start (B 1.4 m behind A, level, at rest)
+noise_free -e 's|b_offset_min_m: .*|b_offset_min_m: [0.0, -1.4, 0.0]|' \
+  -e 's|b_offset_max_m: .*|b_offset_max_m: [0.0, -1.4, 0.0]|' -e 's|tilt_max_deg: .*|tilt_max_deg: 0.0|' \
+  -e 's|yaw_max_deg: .*|yaw_max_deg: 0.0|' -e 's|speed_max_mps: .*|speed_max_mps: 0.0|' \
+  -e 's|rate_max_deg_s: .*|rate_max_deg_s: 0.0|' > "$work/task.yaml"
 
 "$iapsim" rl eval --task "$work/task.yaml" --episodes 1 --threads 1 --out "$work/env" > "$work/env.out"
 # episode,seed,outcome,steps,docked_step,return
@@ -36,6 +43,20 @@ echo "environment: $env_outcome at step $env_steps, docked at $env_docked; graph
 [ "$outcome" = success ] || fail "the expert did not dock in the graph: $(cat "$work/graph/metrics.json")"
 [ "$docked" -eq "$env_docked" ] || fail "the latch closed at step $docked in the graph, $env_docked in the environment"
 [ "$steps" -eq "$env_steps" ] || fail "the episode ended at step $steps in the graph, $env_steps in the environment"
+
+# eq. (23)'s starts, the noise off, flown in both by `rl eval --graph` (with a --set the process must see too)
+noise_free > "$work/random_starts.yaml"
+"$iapsim" rl eval --task "$work/random_starts.yaml" --episodes 3 --graph --set termination.max_steps=1400 \
+  --out "$work/eval" > "$work/eval.out" 2> /dev/null
+grep -q "3 of 3 episodes end alike" "$work/eval.out" || fail "rl eval --graph: $(cat "$work/eval.out")"
+paste -d, "$work/eval/episodes.csv" "$work/eval/graph_episodes.csv" | tail -n +2 |
+  while IFS=, read -r e _ outcome steps docked _ _ _ graph_outcome graph_steps graph_docked; do
+    [ "$outcome" = "$graph_outcome" ] || fail "episode $e: $outcome in the environment, $graph_outcome in the graph"
+    [ $(( docked > graph_docked ? docked - graph_docked : graph_docked - docked )) -le 10 ] ||
+      fail "episode $e: docked at step $docked in the environment, $graph_docked in the graph"
+    echo "episode $e: $outcome at $steps / $graph_steps, docked at $docked / $graph_docked (environment / graph)"
+  done
+grep -q '"graph"' "$work/eval/summary.json" || fail "summary.json has no graph figures"
 
 set +e
 "$iapsim" run "$src/configs/scenarios/docking_approach.yaml" --set processes.policy.params.policy=nothing.pt \
