@@ -382,11 +382,7 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
 
 PhysicsConfig LoadScenarioPhysics(const std::string& scenario_file,
                                   const std::vector<std::string>& overrides) {
-  return ScenarioPhysics(bridge::LoadScenario(scenario_file, overrides));
-}
-
-PhysicsConfig ScenarioPhysics(const bridge::Scenario& scenario) {
-  const std::string& scenario_file = scenario.file;
+  const bridge::Scenario scenario = bridge::LoadScenario(scenario_file, overrides);
   const bridge::ProcessConfig* clock = scenario.Find(scenario.clock_owner);
   if (!clock || clock->exec != "iapsim_physics") {
     throw bridge::ConfigError(

@@ -10,10 +10,6 @@
 #include "physics/simulation.h"
 #include "physics/uncertainty.h"
 
-namespace iapsim::bridge {
-struct Scenario;
-}
-
 namespace iapsim::physics {
 
 struct PhysicsConfig {
@@ -39,7 +35,5 @@ PhysicsConfig ReadPhysicsConfig(bridge::YamlMap& params, const std::string& scen
 /// RL environments). Throws bridge::ConfigError naming the file.
 PhysicsConfig LoadScenarioPhysics(const std::string& scenario_file,
                                   const std::vector<std::string>& overrides = {});
-/// The same for a scenario already loaded (a process reading the physics of its own run).
-PhysicsConfig ScenarioPhysics(const bridge::Scenario& scenario);
 
 }  // namespace iapsim::physics

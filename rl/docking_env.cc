@@ -57,11 +57,8 @@ const char* OutcomeName(Outcome outcome) {
 }
 
 DockingEnv::DockingEnv(const DockingTaskConfig& config)
-    : DockingEnv(config,
-                 physics::LoadScenarioPhysics(config.scenario, config.scenario_overrides).simulation) {}
-
-DockingEnv::DockingEnv(const DockingTaskConfig& config, const physics::SimulationConfig& scenario_world)
-    : config_(config), world_(scenario_world) {
+    : config_(config),
+      world_(physics::LoadScenarioPhysics(config.scenario, config.scenario_overrides).simulation) {
   const auto fail = [&](const std::string& what) {
     throw bridge::ConfigError(config.file + ": scenario " + config.scenario + ": " + what);
   };

@@ -99,8 +99,6 @@ class DockingEnv {
   /// Reads the task's scenario physics once; throws bridge::ConfigError when the scenario lacks the task's
   /// vehicles or latch, or when they do not make a docking pair (ports facing each other, level).
   explicit DockingEnv(const DockingTaskConfig& config);
-  /// The task in `world` (a run's physics, physics::ScenarioPhysics) instead of its scenario's.
-  DockingEnv(const DockingTaskConfig& config, const physics::SimulationConfig& world);
   ~DockingEnv();
 
   /// Seeds the environment's stream and starts an episode.

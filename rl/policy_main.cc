@@ -5,8 +5,9 @@
 // the environment does; it acts once per control period of the task (steps k with t_k a multiple of it).
 //
 //   params  task: FILE        the task (configs/rl/docking.yaml): vehicles A and B, latch, action limits,
-//                             observation noise and termination; the world is this run's physics (the
-//                             task's own scenario key is not read)
+//                             observation noise, termination, and the targets (A's start in the task's
+//                             scenario, B's where it docks); the run's physics flies, from wherever the
+//                             run starts A and B
 //           task_set: [KEY=VALUE, ...]  overrides of the task's keys (as `iapsim rl eval --set`)
 //           policy: NAME      expert, or a TorchScript policy file (*.pt, relative to the scenario)
 //   subscribes  /<a>/state, /<b>/state   iapsim_msgs/IapState (the platform, and B's contact wrench)
@@ -30,7 +31,6 @@
 
 #include "bridge/eigen_msgs.h"
 #include "bridge/process.h"
-#include "physics/physics_config.h"
 #include "rl/docking_env.h"
 #include "rl/torchscript_policy.h"
 
@@ -44,9 +44,7 @@ class PolicyNode : public bridge::Process {
     params.Required("policy", &policy_name_);
     if (policy_name_ != "expert")
       policy_name_ = bridge::ReadFilePath(params, "policy", context.scenario.file);
-    DockingTaskConfig task = ReadDockingTask(task_file, ReadOverrides(params, "task_set"));
-    task.scenario = context.scenario.file;  // the world is this run's
-    task.scenario_overrides.clear();
+    const DockingTaskConfig task = ReadDockingTask(task_file, ReadOverrides(params, "task_set"));
     if (context.self.rate_hz != 0.0) {
       params.Fail("rate_hz",
                   "must be 0 (every clock step): the process averages the contact wrench over each "
@@ -59,7 +57,8 @@ class PolicyNode : public bridge::Process {
                                 " Hz does not divide the clock's rate of this run (" + context.scenario.file +
                                 ")");
     }
-    env_ = std::make_unique<DockingEnv>(task, physics::ScenarioPhysics(context.scenario).simulation);
+    // the targets are the task's (A's start in the task's scenario), wherever this run starts A and B
+    env_ = std::make_unique<DockingEnv>(task);
     try {
       policy_ = MakePolicy(policy_name_, *env_);
     } catch (const std::invalid_argument& error) {
