@@ -92,6 +92,7 @@ Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::stri
   Require(config.minibatch >= 2, "minibatch", "at least 2 (advantages are normalised per minibatch)");
   Require(config.threads >= 1, "threads", "at least 1");
   Require(config.clip > 0.0, "clip", "positive");
+  Require(config.initial_std > 0.0, "initial_std", "positive");
   Require(config.reward_scale > 0.0, "reward_scale", "positive");
   Require(config.anchor_coefficient >= 0.0, "anchor_coefficient", "at least 0");
   Require(config.discount > 0.0 && config.discount <= 1.0, "discount", "in (0, 1]");
@@ -106,7 +107,7 @@ Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::stri
   for (torch::Tensor& p : impl.anchor->parameters()) p.requires_grad_(false);
   torch::manual_seed(config.seed);  // the value network's initial weights
   impl.value = Mlp(kObservationSize, config.value_hidden, 1);
-  impl.log_std = torch::full({kActionSize}, config.initial_log_std, torch::kFloat32).requires_grad_();
+  impl.log_std = torch::full({kActionSize}, std::log(config.initial_std), torch::kFloat32).requires_grad_();
   impl.generator = at::detail::createCPUGenerator(config.seed);
   impl.actor_optimizer = std::make_unique<torch::optim::Adam>(
       impl.ActorParameters(), torch::optim::AdamOptions(config.actor_learning_rate).eps(1e-5));

@@ -3,7 +3,6 @@
 // `iapsim rl ...` becomes: they may fly learned policies, and loading libtorch costs a process 2 s that no
 // other `iapsim` command should pay. Each returns the process exit code.
 
-#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -69,12 +68,12 @@ struct RlTrainArgs {
   int64_t eval_every = 2000;  // updates between evaluations (and checkpoints)
   int eval_episodes = 50;     // from the stream (seed + 1, e): the same starts at every evaluation
   int64_t ppo_iterations = 100;
-  int ppo_envs = 8;
-  int ppo_rollout_steps = 1200;  // per environment and iteration
+  int ppo_envs = rl::PpoConfig().envs;
+  int ppo_rollout_steps = rl::PpoConfig().rollout_steps;  // per environment and iteration
   int64_t ppo_eval_every = 5;    // iterations between evaluations (and checkpoints)
   std::string ppo_init;          // the policy PPO starts from; empty: td3bc/policy.pt
   double ppo_actor_learning_rate = rl::PpoConfig().actor_learning_rate;
-  double ppo_initial_std = std::exp(rl::PpoConfig().initial_log_std);
+  double ppo_initial_std = rl::PpoConfig().initial_std;
   int ppo_value_warmup = rl::PpoConfig().value_warmup_iterations;
   double ppo_discount = rl::PpoConfig().discount;
   double ppo_anchor = rl::PpoConfig().anchor_coefficient;

@@ -80,35 +80,38 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1000000));
   train_cmd->add_option("--ppo-iterations", train.ppo_iterations, "PPO iterations in all (default 100)")
       ->check(CLI::Range(int64_t{0}, int64_t{1} << 40));
-  train_cmd->add_option("--ppo-envs", train.ppo_envs, "PPO's environments per rollout (default 8)")
+  train_cmd->add_option("--ppo-envs", train.ppo_envs, "PPO's environments per rollout")
+      ->capture_default_str()
       ->check(CLI::Range(1, 100000));
   train_cmd
       ->add_option("--ppo-rollout-steps", train.ppo_rollout_steps,
-                   "control steps per environment and PPO iteration (default 1200)")
+                   "control steps per environment and PPO iteration")
+      ->capture_default_str()
       ->check(CLI::Range(2, 10000000));
   train_cmd
       ->add_option("--ppo-eval-every", train.ppo_eval_every,
                    "PPO iterations between evaluations and checkpoints (default 5)")
       ->check(CLI::Range(int64_t{1}, int64_t{1} << 40));
-  train_cmd
-      ->add_option("--ppo-actor-lr", train.ppo_actor_learning_rate,
-                   "PPO's actor learning rate (default 3e-5)")
+  train_cmd->add_option("--ppo-actor-lr", train.ppo_actor_learning_rate, "PPO's actor learning rate")
+      ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
   train_cmd
       ->add_option("--ppo-initial-std", train.ppo_initial_std,
-                   "PPO's exploration sigma at the start, in actions of [-1, 1] (default 0.2)")
+                   "PPO's exploration sigma at the start, in actions of [-1, 1]")
+      ->capture_default_str()
       ->check(CLI::Range(1e-6, 10.0));
   train_cmd
       ->add_option("--ppo-value-warmup", train.ppo_value_warmup,
-                   "PPO iterations that fit the value network before the actor moves (default 3)")
+                   "PPO iterations that fit the value network before the actor moves")
+      ->capture_default_str()
       ->check(CLI::Range(0, 1000000));
-  train_cmd
-      ->add_option("--ppo-discount", train.ppo_discount,
-                   "PPO's discount gamma per control step (default 0.99)")
+  train_cmd->add_option("--ppo-discount", train.ppo_discount, "PPO's discount gamma per control step")
+      ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
   train_cmd
       ->add_option("--ppo-anchor", train.ppo_anchor,
-                   "PPO's weight on the KL to its initial actor (default 0: plain PPO)")
+                   "PPO's weight on the KL to its initial actor (0: plain PPO)")
+      ->capture_default_str()
       ->check(CLI::Range(0.0, 1e6));
   train_cmd
       ->add_option("--ppo-init", train.ppo_init,

@@ -11,7 +11,6 @@
 //   DIR/ppo/policy.pt                       the deterministic actor as TorchScript
 
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -141,7 +140,7 @@ void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& td3b
   config.rollout_steps = args.ppo_rollout_steps;
   config.minibatch = args.ppo_rollout_steps;
   config.actor_learning_rate = args.ppo_actor_learning_rate;
-  config.initial_log_std = std::log(args.ppo_initial_std);
+  config.initial_std = args.ppo_initial_std;
   config.value_warmup_iterations = args.ppo_value_warmup;
   config.discount = args.ppo_discount;
   config.anchor_coefficient = args.ppo_anchor;
