@@ -187,6 +187,9 @@ void DockingEnv::StartEpisode() {
   done_ = false;
   contact_wrench_.setZero();
   terms_ = RewardTerms();
+  QuadrotorState states[2];
+  CurrentStates(states);
+  potential_ = StateReward(states, 0.0).potential();
 }
 
 void DockingEnv::CurrentStates(QuadrotorState (&states)[2]) const {
@@ -195,6 +198,19 @@ void DockingEnv::CurrentStates(QuadrotorState (&states)[2]) const {
         simulation_->world().body(simulation_->output(vehicle_[i]).platform_body);
     states[i] = {body.p_WB_m, body.q_WB, body.v_WB_W, body.w_WB_W, body.a_WB_W};
   }
+}
+
+RewardTerms DockingEnv::StateReward(const QuadrotorState (&states)[2], double contact_force_y_N) const {
+  const physics::LatchOutput& latch = simulation_->latch_output(latch_);
+  Eigen::Vector3d position_error_m[2];
+  double attitude_error_rad[2];
+  for (int i = 0; i < 2; ++i) {
+    position_error_m[i] = states[i].p_WP_m - target_m_[i];
+    attitude_error_rad[i] = Eigen::AngleAxisd(target_q_WP_.conjugate() * states[i].q_WP).angle();
+  }
+  return Reward(config_, position_error_m, attitude_error_rad,
+                InGuidingRegion(config_.guide, latch.axial_error_m, latch.radial_error_m),
+                latch.axial_error_m, latch.radial_error_m, contact_force_y_N);
 }
 
 Observation DockingEnv::Observe(const QuadrotorState (&states)[2], const ContactWrench& contact_wrench,
@@ -286,22 +302,21 @@ StepResult DockingEnv::Step(const Action& action, Observation* observation) {
   info.contact_force_y_N = contact_wrench_[1];
   info.in_guiding_region = InGuidingRegion(config_.guide, latch.axial_error_m, latch.radial_error_m);
 
-  Eigen::Vector3d position_error_m[2];
-  double attitude_error_rad[2];
-  for (int i = 0; i < 2; ++i) {
-    position_error_m[i] = states[i].p_WP_m - target_m_[i];
-    attitude_error_rad[i] = Eigen::AngleAxisd(target_q_WP_.conjugate() * states[i].q_WP).angle();
-  }
-  terms_ = Reward(config_, position_error_m, attitude_error_rad, info.in_guiding_region, latch.axial_error_m,
-                  latch.radial_error_m, info.contact_force_y_N);
+  terms_ = StateReward(states, info.contact_force_y_N);
   if (progress_.just_docked) terms_.bonus += config_.reward.latch_bonus;
   if (info.outcome == Outcome::kSuccess) terms_.bonus += config_.reward.success_bonus;
   if (info.outcome == Outcome::kCrash || info.outcome == Outcome::kSeparation) {
     terms_.bonus -= config_.reward.failure_penalty;
   }
-  result.reward = terms_.total();
   result.terminated = info.outcome == Outcome::kSuccess || info.outcome == Outcome::kCrash ||
                       info.outcome == Outcome::kSeparation;
+  if (config_.reward.shaping == DockingReward::Shaping::kPotential) {
+    const double next_potential = result.terminated ? 0.0 : terms_.potential();
+    terms_.shaping = config_.reward.discount * next_potential - potential_;
+    potential_ = next_potential;
+    terms_.position = terms_.attitude = terms_.guide = terms_.relative = 0.0;
+  }
+  result.reward = terms_.total();
   result.truncated = info.outcome == Outcome::kTimeout;
   done_ = result.terminated || result.truncated;
   CurrentStates(states);

@@ -90,8 +90,11 @@ struct RewardTerms {
   double guide = 0.0;
   double relative = 0.0;
   double force = 0.0;
-  double bonus = 0.0;  // latch, success, failure
-  double total() const { return position + attitude + guide + relative + force + bonus; }
+  double bonus = 0.0;    // latch, success, failure
+  double shaping = 0.0;  // γ Φ(s′) − Φ(s) under potential shaping, which pays the four terms above as Φ
+  /// Φ: what the state terms sum to.
+  double potential() const { return position + attitude + guide + relative; }
+  double total() const { return potential() + force + bonus + shaping; }
 };
 
 class DockingEnv {
@@ -147,6 +150,8 @@ class DockingEnv {
  private:
   void StartEpisode();
   void CurrentStates(QuadrotorState (&states)[2]) const;
+  /// The reward's terms (no bonus yet) of the current state, the contact force along y given.
+  RewardTerms StateReward(const QuadrotorState (&states)[2], double contact_force_y_N) const;
 
   DockingTaskConfig config_;
   physics::SimulationConfig world_;  // the scenario's, with A and B where it put them
@@ -170,6 +175,7 @@ class DockingEnv {
   bool done_ = true;
   ContactWrench contact_wrench_ = ContactWrench::Zero();
   RewardTerms terms_;
+  double potential_ = 0.0;  // Φ of the current state, under potential shaping
 };
 
 }  // namespace iapsim::rl

@@ -46,6 +46,8 @@ TEST(DockingTask, TheShippedFileHoldsTheDefaults) {
   EXPECT_EQ(task.reset.b_offset_min_m, defaults.reset.b_offset_min_m);
   EXPECT_EQ(task.reset.b_offset_max_m, defaults.reset.b_offset_max_m);
   EXPECT_EQ(task.reward.latch_bonus, defaults.reward.latch_bonus);
+  EXPECT_EQ(task.reward.shaping, defaults.reward.shaping);
+  EXPECT_EQ(task.reward.discount, defaults.reward.discount);
   EXPECT_EQ(task.termination.max_steps, defaults.termination.max_steps);
   EXPECT_EQ(task.noise.acceleration_mps2, defaults.noise.acceleration_mps2);
   EXPECT_NE(task.scenario.find("docking_approach.yaml"), std::string::npos) << task.scenario;
@@ -62,6 +64,8 @@ TEST(DockingTask, BadInputNamesTheFileAndTheKey) {
     return "no error";
   };
   EXPECT_NE(message({"reward.bonus=1"}).find("reward.bonus"), std::string::npos);
+  EXPECT_NE(message({"reward.shaping=linear"}).find("reward.shaping"), std::string::npos);
+  EXPECT_NE(message({"reward.discount=1.5"}).find("reward.discount"), std::string::npos);
   EXPECT_NE(message({"reset.b_offset_max_m=[0, -1.6, 0]"}).find("b_offset_max_m"), std::string::npos);
   EXPECT_NE(message({"termination.max_steps=0"}).find("termination.max_steps"), std::string::npos);
   EXPECT_NE(message({"vehicle_b=c"}).find("no vehicle 'c'"), std::string::npos);
@@ -166,6 +170,44 @@ TEST(DockingEnv, RewardTermsAreTheWeightedDistancesAndForces) {
   EXPECT_EQ(outside.guide, 0.0);
   EXPECT_EQ(outside.relative, 0.0);
   EXPECT_EQ(outside.force, 0.0);
+}
+
+// Potential shaping (Ng et al. 1999) pays γ Φ(s′) − Φ(s) for the state terms that direct shaping pays as
+// they are, Φ = 0 once the episode has ended: the same expert episode flown both ways, step by step.
+TEST(DockingEnv, PotentialShapingPaysTheChangeOfTheStateTerms) {
+  constexpr double kDiscount = 0.9;
+  struct Step {
+    double potential, force, bonus, reward;
+    bool terminated;
+  };
+  const auto fly = [](const DockingTaskConfig& task) {
+    DockingEnv env(task);
+    DockingExpert expert(env);
+    Observation observation = env.Reset(3);
+    expert.Reset();
+    std::vector<Step> steps;
+    StepResult result;
+    while (!result.terminated && !result.truncated) {
+      result = env.Step(expert.Act(observation), &observation);
+      const RewardTerms& terms = env.reward_terms();
+      steps.push_back({terms.potential(), terms.force, terms.bonus, result.reward, result.terminated});
+    }
+    return steps;
+  };
+  const std::vector<Step> direct = fly(Task({"reward.shaping=direct"}));
+  const std::vector<Step> shaped =
+      fly(Task({"reward.shaping=potential", "reward.discount=" + std::to_string(kDiscount)}));
+  ASSERT_EQ(shaped.size(), direct.size());  // the reward changes nothing the episode does
+  ASSERT_TRUE(direct.back().terminated);
+  EXPECT_GT(direct.back().bonus, 0.0);  // the expert docks
+  for (size_t k = 1; k < direct.size(); ++k) {
+    const double next_potential = direct[k].terminated ? 0.0 : direct[k].potential;
+    EXPECT_NEAR(shaped[k].reward,
+                direct[k].bonus + direct[k].force + kDiscount * next_potential - direct[k - 1].potential,
+                1e-9)
+        << "step " << k + 1;
+    EXPECT_EQ(shaped[k].potential, 0.0);  // paid as shaping, not as terms
+  }
 }
 
 TEST(DockingEnv, TheGuidingRegionIsAConeAheadOfTheFace) {

@@ -43,6 +43,11 @@ void ReadReward(YamlMap map, DockingReward* reward) {
   map.OptionalInRange("latch_bonus", &reward->latch_bonus, 0.0, kMax);
   map.OptionalInRange("success_bonus", &reward->success_bonus, 0.0, kMax);
   map.OptionalInRange("failure_penalty", &reward->failure_penalty, 0.0, kMax);
+  std::string shaping = reward->shaping == DockingReward::Shaping::kPotential ? "potential" : "direct";
+  map.OptionalChoice("shaping", &shaping, {"direct", "potential"});
+  reward->shaping =
+      shaping == "potential" ? DockingReward::Shaping::kPotential : DockingReward::Shaping::kDirect;
+  map.OptionalInRange("discount", &reward->discount, 0.0, 1.0);
   map.Finish();
 }
 

@@ -47,7 +47,18 @@ struct ObservationNoise {
 /// position while docking, the contact force along y), per control step, and the episode's bonuses. The
 /// tracking terms are negative distances, so a policy that only hovers where it started collects about −0.8
 /// a step; the bonuses outweigh a whole episode of that.
+///
+/// `shaping` says how the state terms (position, attitude, guide, relative) enter the reward:
+///  - direct: paid every step, as the paper words them. Then a policy can earn more by staying in the
+///    guiding region than by docking, which pays its bonuses and ends the episode (the README's PPO runs).
+///  - potential (the default): as potential-based shaping (Ng, Harada & Russell 1999, "Policy invariance
+///  under reward
+///    transformations"): their sum Φ(s) pays γ Φ(s′) − Φ(s) per step, Φ = 0 after a crash, separation or
+///    success (Grześ 2017, "Reward shaping in episodic RL"), so every return telescopes to the bonuses and
+///    the force cost less Φ(start), and the optimal policy is that of the bonuses alone: docking, soon. It
+///    holds for a learner discounting with the same γ, `discount`.
 struct DockingReward {
+  enum class Shaping { kDirect, kPotential };
   double position_per_m = 1.0;    // −Σ |p_i − p̄_i| over the two quadrotors
   double attitude_per_rad = 0.5;  // −Σ angle(R̄_iᵀ R_i)
   double guide = 0.5;             // + while B's port is in the guiding region of A's
@@ -57,6 +68,8 @@ struct DockingReward {
   double latch_bonus = 50.0;      // once, when the latch closes
   double success_bonus = 100.0;   // once, at success
   double failure_penalty = 50.0;  // once, at a crash or separation
+  Shaping shaping = Shaping::kPotential;
+  double discount = 0.99;  // γ of the potential-based shaping: the learner's (PPO's default)
 };
 
 /// The guiding region: a cone ahead of A's port along its axis (the cylinder's face), in which B's port

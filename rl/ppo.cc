@@ -97,6 +97,11 @@ Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::stri
   Require(config.anchor_coefficient >= 0.0, "anchor_coefficient", "at least 0");
   Require(config.discount > 0.0 && config.discount <= 1.0, "discount", "in (0, 1]");
   Require(config.gae_lambda >= 0.0 && config.gae_lambda <= 1.0, "gae_lambda", "in [0, 1]");
+  Require(
+      task.reward.shaping != DockingReward::Shaping::kPotential || config.discount == task.reward.discount,
+      "discount",
+      "the task's reward.discount (" + std::to_string(task.reward.discount) +
+          ") under potential shaping, which keeps the optimal policy only for the same γ");
   Impl& impl = *impl_;
   impl.config = config;
   ActorFile start = ReadActor(initial_policy);

@@ -155,6 +155,29 @@ TEST(Ppo, ACheckpointResumesTrainingExactly) {
   }
 }
 
+// Potential shaping keeps the optimal policy only for the learner's own γ (rl/docking_task.h).
+TEST(Ppo, RefusesADiscountOtherThanThePotentialShapings) {
+  test_support::TestFolder folder("ppo_discount");
+  const std::string initial = InitialPolicy(folder);
+  const DockingTaskConfig shaped =
+      ReadDockingTask(std::string(IAPSIM_SOURCE_DIR) + "/configs/rl/docking.yaml",
+                      {"reward.shaping=potential", "reward.discount=0.99"});
+  PpoConfig config = Small();
+  config.discount = 0.99;
+  EXPECT_NO_THROW(Ppo(shaped, config, initial));
+  config.discount = 0.998;
+  try {
+    Ppo learner(shaped, config, initial);
+    FAIL() << "a discount other than the shaping's was accepted";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("reward.discount (0.990000)"), std::string::npos)
+        << error.what();
+  }
+  const DockingTaskConfig direct =
+      ReadDockingTask(std::string(IAPSIM_SOURCE_DIR) + "/configs/rl/docking.yaml", {"reward.shaping=direct"});
+  EXPECT_NO_THROW(Ppo(direct, config, initial));  // direct shaping: any γ
+}
+
 TEST(Ppo, ABadInitialPolicyOrCheckpointIsAnErrorNamingTheFile) {
   test_support::TestFolder folder("ppo_bad");
   const std::string initial = InitialPolicy(folder);

@@ -67,7 +67,7 @@ struct RlTrainArgs {
   double td3bc_alpha = 2.5;   // TD3-BC's α: the Q term's weight against behaviour cloning (0: pure cloning)
   int64_t eval_every = 2000;  // updates between evaluations (and checkpoints)
   int eval_episodes = 50;     // from the stream (seed + 1, e): the same starts at every evaluation
-  int64_t ppo_iterations = 100;
+  int64_t ppo_iterations = 50;
   int ppo_envs = rl::PpoConfig().envs;
   int ppo_rollout_steps = rl::PpoConfig().rollout_steps;  // per environment and iteration
   int64_t ppo_eval_every = 5;    // iterations between evaluations (and checkpoints)
@@ -75,7 +75,7 @@ struct RlTrainArgs {
   double ppo_actor_learning_rate = rl::PpoConfig().actor_learning_rate;
   double ppo_initial_std = rl::PpoConfig().initial_std;
   int ppo_value_warmup = rl::PpoConfig().value_warmup_iterations;
-  double ppo_discount = rl::PpoConfig().discount;
+  double ppo_discount = -1.0;  // < 0: the task's reward.discount, which potential shaping needs
   double ppo_anchor = rl::PpoConfig().anchor_coefficient;
 };
 /// The seed's offline-to-online pipeline (§IV-E, Fig. 7): the expert's data set, then TD3-BC on it, then PPO

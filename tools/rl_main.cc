@@ -78,7 +78,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(int64_t{1}, int64_t{1} << 40));
   train_cmd->add_option("--eval-episodes", train.eval_episodes, "episodes per evaluation (default 50)")
       ->check(CLI::Range(1, 1000000));
-  train_cmd->add_option("--ppo-iterations", train.ppo_iterations, "PPO iterations in all (default 100)")
+  train_cmd->add_option("--ppo-iterations", train.ppo_iterations, "PPO iterations in all (default 50)")
       ->check(CLI::Range(int64_t{0}, int64_t{1} << 40));
   train_cmd->add_option("--ppo-envs", train.ppo_envs, "PPO's environments per rollout")
       ->capture_default_str()
@@ -105,8 +105,9 @@ int main(int argc, char** argv) {
                    "PPO iterations that fit the value network before the actor moves")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000000));
-  train_cmd->add_option("--ppo-discount", train.ppo_discount, "PPO's discount gamma per control step")
-      ->capture_default_str()
+  train_cmd
+      ->add_option("--ppo-discount", train.ppo_discount,
+                   "PPO's discount gamma per control step (default: the task's reward.discount)")
       ->check(CLI::Range(0.0, 1.0));
   train_cmd
       ->add_option("--ppo-anchor", train.ppo_anchor,

@@ -142,7 +142,7 @@ void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& td3b
   config.actor_learning_rate = args.ppo_actor_learning_rate;
   config.initial_std = args.ppo_initial_std;
   config.value_warmup_iterations = args.ppo_value_warmup;
-  config.discount = args.ppo_discount;
+  config.discount = args.ppo_discount < 0.0 ? task.reward.discount : args.ppo_discount;
   config.anchor_coefficient = args.ppo_anchor;
   config.seed = args.expert.seed;
   config.threads = args.expert.threads;
