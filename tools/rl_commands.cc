@@ -3,17 +3,25 @@
 
 #include "tools/rl_commands.h"
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <stdexcept>
+#include <thread>
 
 #include "bridge/config.h"
 #include "bridge/launcher.h"
@@ -23,6 +31,8 @@
 #include "rl/evaluation.h"
 #include "rl/torchscript_policy.h"
 #include "tools/plot_script.h"
+
+extern char** environ;
 
 namespace iapsim::tools {
 namespace {
@@ -91,19 +101,60 @@ std::string Vector(const Eigen::Vector3d& v, double scale = 1.0) {
   return "[" + Number(scale * v.x()) + ", " + Number(scale * v.y()) + ", " + Number(scale * v.z()) + "]";
 }
 
+// Runs `iapsim run SCENARIO --out OUT_DIR --set ...` and waits for it; its terminal output goes to
+// OUT_DIR/run.out. A child `iapsim run` rather than bridge::Launch in this process, so that runs can go side
+// by side: each run owns its signal handling and its processes, and Ctrl-C reaches every run in the
+// terminal's process group, each stopping its own graph. Throws std::runtime_error with the run's last words.
+void RunScenario(const std::string& scenario, const std::vector<std::string>& overrides,
+                 const std::filesystem::path& out_dir) {
+  std::filesystem::create_directories(out_dir);
+  const std::string program = bridge::ExecutableDir() + "/iapsim";
+  const std::string output = (out_dir / "run.out").string();
+  std::vector<std::string> words = {program, "run", scenario, "--out", out_dir.string()};
+  for (const std::string& assignment : overrides) words.insert(words.end(), {"--set", assignment});
+  std::vector<char*> argv;
+  for (std::string& word : words) argv.push_back(word.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, output.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                   0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  pid_t pid = 0;
+  const int spawned = posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) throw std::runtime_error("cannot start " + program + ": " + std::strerror(spawned));
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
+  std::ifstream in(output);
+  std::string line, last;
+  while (std::getline(in, line)) {
+    if (!line.empty()) last = line;
+  }
+  throw std::runtime_error("iapsim run " +
+                           (WIFSIGNALED(status)
+                                ? "was killed by signal " + std::to_string(WTERMSIG(status))
+                                : "exited with status " + std::to_string(WEXITSTATUS(status))) +
+                           (last.empty() ? "" : ": " + last) + " (" + output + ")");
+}
+
 // The episodes flown again as runs of the task's scenario: each run starts A and B where the environment
 // starts episode e (its stream (seed, e)), the policy flies in iapsim_policy, and the run's report says how
-// the episode ended. Run e's folder is runs_dir/e.
+// the episode ended. Run e's folder is runs_dir/e. `args.threads` runs go side by side; each is lockstep and
+// seeded, so the results do not depend on how many.
 std::vector<rl::EpisodeResult> RunGraphEpisodes(const RlEpisodeArgs& args, const rl::DockingTaskConfig& task,
                                                 const std::filesystem::path& runs_dir) {
   namespace fs = std::filesystem;
   rl::DockingEnv env(task);
   const std::string policy = args.policy == "expert" ? args.policy : fs::absolute(args.policy).string();
   constexpr double kRadToDeg = 180.0 / M_PI;
-  std::vector<rl::EpisodeResult> results;
+  std::vector<std::vector<std::string>> runs(args.episodes);
   for (int e = 0; e < args.episodes; ++e) {
     env.Reset(physics::StreamSeed(args.seed, e));
-    std::vector<std::string> overrides = task.scenario_overrides;
+    std::vector<std::string>& overrides = runs[e];
+    overrides = task.scenario_overrides;
     for (int i = 0; i < 2; ++i) {
       const physics::VehicleSpec& start = env.start(i);
       const std::string entry =
@@ -122,27 +173,40 @@ std::vector<rl::EpisodeResult> RunGraphEpisodes(const RlEpisodeArgs& args, const
     overrides.push_back("duration_s=" + Number(task.termination.max_steps / task.control_rate_hz));
     overrides.push_back("seed=" + std::to_string(physics::StreamSeed(args.seed, e)));
     overrides.push_back("recording.enabled=false");
-    bridge::LaunchOptions options;
-    options.scenario_path = task.scenario;
-    options.overrides = overrides;
-    options.out_dir = (runs_dir / std::to_string(e)).string();
-    options.bin_dir = bridge::ExecutableDir();
-    const bridge::LaunchResult run = bridge::Launch(options);
-    if (run.exit_code != 0) {
-      throw std::runtime_error("episode " + std::to_string(e) + " in the graph: " + run.message + " (" +
-                               options.out_dir + ")");
-    }
-    const nlohmann::json report = nlohmann::json::parse(
-        std::ifstream(options.out_dir + "/metrics.json"))["processes"]["policy"]["process"];
-    rl::EpisodeResult result;
-    result.seed = physics::StreamSeed(args.seed, e);
-    result.outcome = OutcomeNamed(report.value("outcome", ""));
-    result.steps = report.value("outcome_step", report.value("control_steps", 0));
-    result.docked_step = report.value("docked_step", -1);
-    results.push_back(result);
-    std::fprintf(stderr, "\r  graph: episode %d of %d", e + 1, args.episodes);
   }
+
+  std::vector<rl::EpisodeResult> results(args.episodes);
+  std::atomic<int> next{0};
+  std::mutex mutex;  // guards done and failure
+  int done = 0;
+  std::string failure;
+  const auto work = [&] {
+    for (int e = next++; e < args.episodes; e = next++) {
+      const fs::path out_dir = runs_dir / std::to_string(e);
+      try {
+        RunScenario(fs::absolute(task.scenario).string(), runs[e], out_dir);
+        const nlohmann::json report =
+            nlohmann::json::parse(std::ifstream(out_dir / "metrics.json"))["processes"]["policy"]["process"];
+        rl::EpisodeResult& result = results[e];
+        result.seed = physics::StreamSeed(args.seed, e);
+        result.outcome = OutcomeNamed(report.value("outcome", ""));
+        result.steps = report.value("outcome_step", report.value("control_steps", 0));
+        result.docked_step = report.value("docked_step", -1);
+      } catch (const std::exception& error) {
+        const std::lock_guard<std::mutex> lock(mutex);
+        if (failure.empty()) failure = "episode " + std::to_string(e) + " in the graph: " + error.what();
+        next = args.episodes;  // start no more runs
+        return;
+      }
+      const std::lock_guard<std::mutex> lock(mutex);
+      std::fprintf(stderr, "\r  graph: %d of %d episodes", ++done, args.episodes);
+    }
+  };
+  std::vector<std::thread> workers;
+  for (int t = 0; t < std::min(args.threads, args.episodes); ++t) workers.emplace_back(work);
+  for (std::thread& worker : workers) worker.join();
   std::fprintf(stderr, "\n");
+  if (!failure.empty()) throw std::runtime_error(failure);
   return results;
 }
 

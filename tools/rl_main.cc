@@ -37,7 +37,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1000000));
   eval_cmd->add_flag(
       "--graph", eval.graph,
-      "also fly each start as a run of the task's scenario, the policy in iapsim_policy, and compare");
+      "also fly each start as a run of the task's scenario, the policy in iapsim_policy, and compare "
+      "(--threads runs side by side)");
 
   RlCollectArgs collect;
   auto* collect_cmd = app.add_subcommand(
