@@ -3,8 +3,9 @@
 # as it does in the in-process environment: from the scenario's own start, noise-free, the expert's latch
 # closes at the same control step and the episode ends at the same step in both; from eq. (23)'s random
 # starts (`iapsim rl eval --graph`), noise-free, the expert's and a learned policy's episodes end alike at
-# the same steps (a learned policy reads every observation, which the expert does not); a bad policy
-# parameter is a configuration error that names it.
+# the same steps (a learned policy reads every observation, which the expert does not), with runs side by
+# side; a failing run ends the evaluation with its reason; a bad policy parameter is a configuration error
+# that names it.
 # usage: policy_graph_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
 bin=$1
@@ -62,6 +63,14 @@ for policy in expert "$work/train/td3bc/policy.pt"; do
 done
 
 set +e
+# a run of the graph that fails (here: the policy process at a rate of its own, which the environment does
+# not read) ends the evaluation with the episode, the reason and where the run's output is
+"$iapsim" rl eval --task "$src/configs/rl/docking.yaml" --episodes 3 --graph --set 'scenario_set=["processes.policy.rate_hz=5"]' \
+  --set termination.max_steps=100 --out "$work/bad_eval" > /dev/null 2> "$work/bad_eval.err"
+code=$?
+[ $code -eq 1 ] || fail "a failing graph run exited $code"
+grep -q "in the graph: iapsim run exited with status 2: .*rate_hz: must be 0.*run.out)" "$work/bad_eval.err" ||
+  fail "failing graph run: $(cat "$work/bad_eval.err")"
 "$iapsim" run "$src/configs/scenarios/docking_approach.yaml" --set processes.policy.params.policy=nothing.pt \
   --set recording.enabled=false --out "$work/bad" 2> "$work/bad.err" > /dev/null
 code=$?
