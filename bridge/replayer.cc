@@ -1,13 +1,20 @@
 #include "bridge/replayer.h"
 
+#include <geometry_msgs/PoseStamped.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <optional>
 
 #include "bridge/bag.h"
+#include "bridge/eigen_msgs.h"
+#include "bridge/message.h"
+#include "bridge/message_format.h"
 #include "bridge/message_registry.h"
+#include "bridge/pose_file.h"
 
 namespace iapsim::bridge {
 namespace {
@@ -22,52 +29,24 @@ struct Scheduled {
 class Replayer : public Process {
  public:
   Replayer(const ProcessContext& context, YamlMap& params) : step_ns_(context.scenario.step_ns()) {
-    std::string bag_path;
-    params.Required("bag", &bag_path);
-    if (!std::filesystem::exists(bag_path)) params.Fail("bag", "file '" + bag_path + "' does not exist");
-    std::vector<std::string> topics;
-    ReadStringList(params, "topics", &topics);
-    std::vector<std::string> renames;
-    ReadStringList(params, "map", &renames);
-    std::map<std::string, std::string> rename;
-    for (const auto& r : renames) {
-      const auto arrow = r.find(":=");
-      if (arrow == std::string::npos || arrow == 0 || arrow + 2 == r.size()) {
-        params.Fail("map", "entries are FROM:=TO, got '" + r + "'");
-      }
-      rename[r.substr(0, arrow)] = r.substr(arrow + 2);
+    if (params.Has("bag") == params.Has("file")) {
+      params.Fail("bag",
+                  "a replayer plays exactly one of bag (a recorded bag) or file (a TUM or CSV pose file)");
+    }
+    params.Optional("frame_id", &frame_id_);
+    if (params.Has("bag")) {
+      LoadBag(params);
+    } else {
+      LoadPoseFile(params, context.scenario.file);
     }
     double offset_s = context.scenario.clock.step_s;
     params.OptionalInRange("time_offset_s", &offset_s, context.scenario.clock.step_s, 1e7);
     params.Optional("restamp", &restamp_);
-
-    // the whole selection is loaded up front: a bad bag or an unknown type fails the --check, not the run
-    try {
-      BagReader bag(bag_path);
-      for (const auto& topic : topics) {
-        bool found = false;
-        for (const auto& info : bag.Topics()) found = found || info.topic == topic;
-        if (!found) params.Fail("topics", "topic '" + topic + "' is not in " + bag_path);
-      }
-      bag.ForEach(topics, [&](const BagMessage& m) {
-        const RegisteredType* type = FindType(m.type.datatype);
-        if (!type || type->info.md5 != m.type.md5) {
-          params.Fail("bag", bag_path + ": topic '" + m.topic + "' has type " + m.type.datatype +
-                                 " unknown to iapsim's message registry");
-        }
-        const auto renamed = rename.find(m.topic);
-        queue_.push_back(Scheduled{MessageTimeNs(*type, m),
-                                   renamed == rename.end() ? m.topic : renamed->second, type, m.bytes});
-        return true;
-      });
-      // the earliest message of the selection plays at time_offset_s; order by message time
-      std::stable_sort(queue_.begin(), queue_.end(),
-                       [](const Scheduled& a, const Scheduled& b) { return a.due_ns < b.due_ns; });
-      const int64_t origin_ns = queue_.empty() ? 0 : queue_.front().due_ns;
-      for (auto& m : queue_) m.due_ns += std::llround(offset_s * 1e9) - origin_ns;
-    } catch (const BagError& e) {
-      params.Fail("bag", e.what());
-    }
+    // the earliest message of the log plays at time_offset_s; order by message time
+    std::stable_sort(queue_.begin(), queue_.end(),
+                     [](const Scheduled& a, const Scheduled& b) { return a.due_ns < b.due_ns; });
+    const int64_t origin_ns = queue_.empty() ? 0 : queue_.front().due_ns;
+    for (auto& m : queue_) m.due_ns += std::llround(offset_s * 1e9) - origin_ns;
   }
 
   void Setup(Bus& bus) override { bus_ = &bus; }
@@ -95,6 +74,92 @@ class Replayer : public Process {
   }
 
  private:
+  // The whole selection is loaded up front: a bad bag or an unknown type fails the --check, not the run.
+  void LoadBag(YamlMap& params) {
+    std::string bag_path;
+    params.Required("bag", &bag_path);
+    if (!std::filesystem::exists(bag_path)) params.Fail("bag", "file '" + bag_path + "' does not exist");
+    std::vector<std::string> topics;
+    ReadStringList(params, "topics", &topics);
+    std::vector<std::string> renames;
+    ReadStringList(params, "map", &renames);
+    std::map<std::string, std::string> rename;
+    for (const auto& r : renames) {
+      const auto arrow = r.find(":=");
+      if (arrow == std::string::npos || arrow == 0 || arrow + 2 == r.size()) {
+        params.Fail("map", "entries are FROM:=TO, got '" + r + "'");
+      }
+      rename[r.substr(0, arrow)] = r.substr(arrow + 2);
+    }
+    bool as_pose = false;
+    params.Optional("as_pose", &as_pose);
+    std::string pose_field;
+    params.Optional("pose_field", &pose_field);
+    if (!pose_field.empty() && !as_pose) params.Fail("pose_field", "only applies with as_pose: true");
+    try {
+      BagReader bag(bag_path);
+      for (const auto& topic : topics) {
+        bool found = false;
+        for (const auto& info : bag.Topics()) found = found || info.topic == topic;
+        if (!found) params.Fail("topics", "topic '" + topic + "' is not in " + bag_path);
+      }
+      bag.ForEach(topics, [&](const BagMessage& m) {
+        const RegisteredType* type = FindType(m.type.datatype);
+        if (!type || type->info.md5 != m.type.md5) {
+          params.Fail("bag", bag_path + ": topic '" + m.topic + "' has type " + m.type.datatype +
+                                 " unknown to iapsim's message registry");
+        }
+        const auto renamed = rename.find(m.topic);
+        const std::string& topic = renamed == rename.end() ? m.topic : renamed->second;
+        if (!as_pose) {
+          queue_.push_back(Scheduled{MessageTimeNs(*type, m), topic, type, m.bytes});
+          return true;
+        }
+        std::optional<StampedPose> pose;
+        try {
+          pose = ExtractPose(*type->schema, m.bytes.data(), m.bytes.size(), m.record_time_ns, pose_field);
+        } catch (const std::exception& e) {
+          params.Fail("bag", bag_path + ": topic '" + m.topic + "': " + e.what());
+        }
+        if (!pose) {
+          params.Fail(pose_field.empty() ? "as_pose" : "pose_field",
+                      bag_path + ": topic '" + m.topic + "' (" + m.type.datatype + ") holds no pose" +
+                          (pose_field.empty() ? "" : " at '" + pose_field + "'"));
+        }
+        const Eigen::Vector3d position_m(pose->position[0], pose->position[1], pose->position[2]);
+        const Eigen::Quaterniond orientation(pose->orientation_xyzw[3], pose->orientation_xyzw[0],
+                                             pose->orientation_xyzw[1], pose->orientation_xyzw[2]);
+        AddPose(pose->time_ns, topic, position_m, orientation);
+        return true;
+      });
+    } catch (const BagError& e) {
+      params.Fail("bag", e.what());
+    }
+  }
+
+  void LoadPoseFile(YamlMap& params, const std::string& scenario_file) {
+    const std::string path = ReadFilePath(params, "file", scenario_file);
+    if (!params.Has("format")) params.Fail("format", "is required with file: tum or csv");
+    std::string format;
+    params.OptionalChoice("format", &format, {"tum", "csv"});
+    std::string topic;
+    params.Required("topic", &topic);
+    for (const TimedPose& pose : ReadPoseFile(path, format)) {
+      AddPose(std::llround(pose.t_s * 1e9), topic, pose.position_m, pose.orientation);
+    }
+  }
+
+  void AddPose(int64_t time_ns, const std::string& topic, const Eigen::Vector3d& position_m,
+               const Eigen::Quaterniond& orientation) {
+    static const RegisteredType* const kPoseStamped = FindType("geometry_msgs/PoseStamped");
+    geometry_msgs::PoseStamped message;
+    message.header.stamp = ToRosTime(time_ns);
+    message.header.frame_id = frame_id_;
+    message.pose.position = ToPointMsg(position_m);
+    message.pose.orientation = ToQuaternionMsg(orientation);
+    queue_.push_back(Scheduled{time_ns, topic, kPoseStamped, Encode(message)});
+  }
+
   // the time a message refers to: its header.stamp when it has one (what the data means), else when it was
   // recorded (a bag cannot store time 0, so record times of t = 0 read 1 ns)
   static int64_t MessageTimeNs(const RegisteredType& type, const BagMessage& m) {
@@ -118,6 +183,7 @@ class Replayer : public Process {
 
   int64_t step_ns_;
   bool restamp_ = true;
+  std::string frame_id_ = "W";
   Bus* bus_ = nullptr;
   std::vector<Scheduled> queue_;
   size_t next_ = 0;

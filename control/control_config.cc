@@ -43,7 +43,39 @@ void ReadTrackerGains(bridge::YamlMap& params, TrackerGains* gains) {
   map.Finish();
 }
 
+// Three positive numbers under `key`, kept as they are when absent; `scale` converts what the file says
+// (degrees) to what the config holds (radians).
+void OptionalPositive3(bridge::YamlMap& map, const std::string& key, Eigen::Vector3d* value,
+                       const std::string& axes, double scale = 1.0) {
+  Eigen::Vector3d in_file = *value / scale;
+  OptionalNumbers<3>(map, key, &in_file, "3 positive numbers " + axes, true);
+  if (!(in_file.array() > 0.0).all()) map.Fail(key, "expected 3 positive numbers " + axes);
+  *value = in_file * scale;
+}
+
 }  // namespace
+
+ReferenceShaping ReadReferenceShaping(bridge::YamlMap& reference) {
+  ReferenceShaping shaping;
+  bridge::YamlMap map = reference.Map("shaping");
+  std::string type = "second_order";
+  map.OptionalChoice("type", &type, {"second_order", "none"});
+  if (type == "none") {
+    shaping.type = ReferenceShaping::Type::kNone;
+    map.OptionalInRange("velocity_time_constant_s", &shaping.velocity_time_constant_s, 0.0, 10.0);
+  } else {
+    ReferenceShaperConfig& config = shaping.second_order;
+    map.OptionalInRange("bandwidth_hz", &config.bandwidth_hz, 0.01, 20.0);
+    OptionalPositive3(map, "max_velocity_mps", &config.max_velocity_mps, "[x, y, z] in W");
+    OptionalPositive3(map, "max_acceleration_mps2", &config.max_acceleration_mps2, "[x, y, z] in W");
+    constexpr double kDeg = M_PI / 180.0;
+    OptionalPositive3(map, "max_rate_dps", &config.max_rate_radps, "[roll, pitch, yaw]", kDeg);
+    OptionalPositive3(map, "max_angular_acceleration_dps2", &config.max_angular_acceleration_radps2,
+                      "[roll, pitch, yaw]", kDeg);
+  }
+  map.Finish();
+  return shaping;
+}
 
 IapControllerConfig ReadControllerConfig(bridge::YamlMap& params) {
   IapControllerConfig config;

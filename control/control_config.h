@@ -4,6 +4,7 @@
 
 #include "bridge/config.h"
 #include "control/admittance.h"
+#include "control/commanded_reference.h"
 #include "control/iap_controller.h"
 #include "control/wrench_control.h"
 
@@ -24,5 +25,11 @@ AdmittanceConfig ReadAdmittanceConfig(bridge::YamlMap& params);
 /// command_ramp_s, trigger:
 /// {force_threshold_N, hold_s}}` of `params`. Throws bridge::ConfigError naming the file, key and line.
 DirectWrenchConfig ReadDirectWrenchConfig(bridge::YamlMap& params);
+
+/// Reads the section `shaping: {type: second_order (default) | none, ...}` of a `reference` (the keys of
+/// the type: bandwidth_hz, max_velocity_mps, max_acceleration_mps2 (3 numbers each, x, y, z in W),
+/// max_rate_dps, max_angular_acceleration_dps2 (roll, pitch, yaw); or velocity_time_constant_s for none).
+/// Absent: the defaults. Throws bridge::ConfigError naming the file, key and line.
+ReferenceShaping ReadReferenceShaping(bridge::YamlMap& reference);
 
 }  // namespace iapsim::control

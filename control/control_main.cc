@@ -3,7 +3,8 @@
 //
 //   mode: track   the tracker (10) or (16), picked by the rank test (8), follows `trajectory` (time 0 = the
 //                 first state) or the pose commands arriving on `reference.topic` (a replayed command log:
-//                 `iapsim replay`); allocation (17) within the thrust limits; (18) per sub-aircraft.
+//                 `iapsim replay`), through `reference.shaping` (control/commanded_reference.h);
+//                 allocation (17) within the thrust limits; (18) per sub-aircraft.
 //                 interaction: admittance  (19)-(20) (Table IV) revise the reference from the contact
 //                 wrench, which (10) also feeds forward (§VI-E); direct_wrench: (21) (Table V) takes over
 //                 from (10) once contact holds and drives the contact wrench to a command (§VI-F). The
@@ -131,10 +132,13 @@ class ControlNode : public bridge::Process {
         bridge::YamlMap reference = params.Map("reference");
         reference.Required("topic", &reference_topic_);
         reference.OptionalChoice("type", &reference_type_, {"pose_stamped", "setpoint"});
-        double time_constant_s = 0.1;
-        reference.OptionalInRange("velocity_time_constant_s", &time_constant_s, 0.0, 10.0);
+        shaping_ = ReadReferenceShaping(reference);
         reference.Finish();
-        commanded_.emplace(time_constant_s);
+        try {
+          commanded_.emplace(shaping_);
+        } catch (const std::invalid_argument& e) {
+          params.Fail("reference", e.what());
+        }
       }
       if (!wrench_controller_) controller_.emplace(vehicle_, config_);
     }
@@ -229,7 +233,31 @@ class ControlNode : public bridge::Process {
       (*report)["engaged"] = wrench_controller_->engaged();
       if (engaged_at_s_) (*report)["engaged_at_s"] = *engaged_at_s_;
     }
-    if (commanded_) (*report)["rejected_references"] = rejected_references_;
+    if (commanded_) {
+      (*report)["rejected_references"] = rejected_references_;
+      nlohmann::json& shaping = (*report)["reference_shaping"];
+      if (shaping_.type == ReferenceShaping::Type::kNone) {
+        shaping["type"] = "none";
+        shaping["velocity_time_constant_s"] = shaping_.velocity_time_constant_s;
+      } else {
+        const ReferenceShaperConfig& config = shaping_.second_order;
+        const auto list = [](const Eigen::Vector3d& v, double scale) {
+          return std::vector<double>{v.x() * scale, v.y() * scale, v.z() * scale};
+        };
+        shaping["type"] = "second_order";
+        shaping["bandwidth_hz"] = config.bandwidth_hz;
+        shaping["max_velocity_mps"] = list(config.max_velocity_mps, 1.0);
+        shaping["max_acceleration_mps2"] = list(config.max_acceleration_mps2, 1.0);
+        shaping["max_rate_dps"] = list(config.max_rate_radps, 180.0 / M_PI);
+        shaping["max_angular_acceleration_dps2"] = list(config.max_angular_acceleration_radps2, 180.0 / M_PI);
+      }
+      // how far the flown reference was from the raw commands (the price of shaping)
+      const ReferenceLag lag = commanded_->lag();
+      shaping["lag_max_m"] = lag.max_m;
+      shaping["lag_rms_m"] = lag.rms_m;
+      shaping["lag_max_deg"] = lag.max_deg;
+      shaping["lag_rms_deg"] = lag.rms_deg;
+    }
   }
 
  private:
@@ -244,7 +272,7 @@ class ControlNode : public bridge::Process {
     }
     const PoseReference nominal = trajectory_           ? trajectory_->Sample(t_s)
                                   : commanded_->empty() ? *hold_
-                                                        : commanded_->current();
+                                                        : commanded_->Update(*hold_, period_s_);
     const PlatformState& state = measured().platform;
     if (interaction_ != "none" && wrench_stamp_ns_ != measured().stamp_ns) ++stale_wrench_updates_;
     PoseReference reference = nominal;
@@ -328,6 +356,7 @@ class ControlNode : public bridge::Process {
   std::unique_ptr<Trajectory> trajectory_;
   std::string reference_topic_;
   std::string reference_type_ = "pose_stamped";
+  ReferenceShaping shaping_;
   std::optional<CommandedPoseReference> commanded_;
   std::optional<PoseReference> hold_;
   uint64_t rejected_references_ = 0;

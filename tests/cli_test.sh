@@ -37,6 +37,25 @@ head -1 "$work/uwb.csv" | grep -q "^time_s,header.seq,header.stamp" || fail "csv
   --map /iap/uwb:=/old/uwb --duration 1 --out "$work/replayed" > /dev/null
 "$iapsim" info "$work/replayed/run.bag" > "$work/replayed.out"
 grep -Eq "^/old/uwb +iapsim_msgs/UwbRanges +201 " "$work/replayed.out" || fail "replay: $(cat "$work/replayed.out")"
+# replay of a pose file: the poses need a topic; a bad line is named with its file and line number
+expect_exit() {  # CODE TEXT COMMAND...: expects the exit code and TEXT on its standard error
+  set +e
+  "${@:3}" > /dev/null 2> "$work/expect.err"
+  local code=$?
+  set -e
+  [ $code -eq "$1" ] || fail "${*:3} exited $code: $(cat "$work/expect.err")"
+  grep -q "$2" "$work/expect.err" || fail "${*:3}: $(cat "$work/expect.err")"
+}
+replay_square=(--scenario "$src/configs/scenarios/three_square_replay.yaml" --duration 1 --out "$work/replayed_file")
+printf 't_s,x_m,y_m,z_m,qx,qy,qz,qw\n5.0,0,0,-2,0,0,0,1\n5.02,0,0,-2,0,0,0.5,1\n' > "$work/cmd.csv"
+expect_exit 2 "a csv pose file needs --topic" "$iapsim" replay "$work/cmd.csv" "${replay_square[@]}"
+expect_exit 2 "are for a bag" "$iapsim" replay "$work/cmd.csv" "${replay_square[@]}" --topic /iap/pose_cmd --as-pose
+expect_exit 2 "cmd.csv:3: quaternion (qx qy qz qw) has norm 1.11803" \
+  "$iapsim" replay "$work/cmd.csv" "${replay_square[@]}" --topic /iap/pose_cmd
+expect_exit 2 "reference.shaping.max_rate_dps: expected 3 positive numbers" "$iapsim" replay "$work/cmd.csv" \
+  "${replay_square[@]}" --topic /iap/pose_cmd --set 'processes.control.params.reference.shaping.max_rate_dps=[30, 0, 30]'
+expect_exit 2 "shaping.velocity_time_constant_s: unknown key" "$iapsim" replay "$work/cmd.csv" "${replay_square[@]}" \
+  --topic /iap/pose_cmd --set processes.control.params.reference.shaping.velocity_time_constant_s=0.1
 
 # bench record runs every variant of a scenario, prints the targets' verdicts and writes its figures
 "$iapsim" bench record --scenario "$src/configs/scenarios/bus_demo.yaml" --repeat 1 --json "$work/bench.json" \

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -130,13 +131,44 @@ double Seconds(int64_t ns) { return static_cast<double>(ns) * 1e-9; }
 
 int Run(const RunArgs& args) { return Launch(args, Overrides(args)); }
 
+namespace {
+int ReplayUsage(const std::string& what) {
+  std::cerr << "iapsim replay: " << what << std::endl;
+  return 2;
+}
+}  // namespace
+
 int Replay(const ReplayArgs& args) {
   auto overrides = Overrides(args.run);
   overrides.push_back("processes.replayer.exec=iapsim_replayer");
   overrides.push_back("processes.replayer.role=participant");
-  overrides.push_back("processes.replayer.params.bag=" + args.bag);
-  overrides.push_back("processes.replayer.params.topics=" + YamlFlowList(args.topics));
-  overrides.push_back("processes.replayer.params.map=" + YamlFlowList(args.map));
+  const std::string extension = std::filesystem::path(args.log).extension().string();
+  const std::string format = !args.format.empty()                         ? args.format
+                             : extension == ".tum" || extension == ".txt" ? "tum"
+                             : extension == ".csv"                        ? "csv"
+                                                                          : "";
+  // the replayer checks the rest (a topic for a file, topics and renames within the bag)
+  if (format.empty()) {
+    if (!args.topic.empty())
+      return ReplayUsage("--topic is for a pose file (--format tum or csv); a bag keeps its topics");
+    overrides.push_back("processes.replayer.params.bag=" + args.log);
+    overrides.push_back("processes.replayer.params.topics=" + YamlFlowList(args.topics));
+    overrides.push_back("processes.replayer.params.map=" + YamlFlowList(args.map));
+    overrides.push_back(std::string("processes.replayer.params.as_pose=") +
+                        (args.as_pose ? "true" : "false"));
+    if (!args.pose_field.empty())
+      overrides.push_back("processes.replayer.params.pose_field=" + args.pose_field);
+  } else {
+    if (!args.topics.empty() || !args.map.empty() || args.as_pose || !args.pose_field.empty()) {
+      return ReplayUsage("--topics, --map, --as-pose and --pose-field are for a bag; a " + format +
+                         " pose file plays on --topic");
+    }
+    if (args.topic.empty())
+      return ReplayUsage("a " + format + " pose file needs --topic (where its poses go)");
+    overrides.push_back("processes.replayer.params.file=" + std::filesystem::absolute(args.log).string());
+    overrides.push_back("processes.replayer.params.format=" + format);
+    overrides.push_back("processes.replayer.params.topic=" + args.topic);
+  }
   return Launch(args.run, overrides);
 }
 

@@ -20,9 +20,13 @@ struct RunArgs {
 int Run(const RunArgs& args);
 
 struct ReplayArgs {
-  std::string bag;
+  std::string log;     // a bag, or a TUM / CSV pose file
+  std::string format;  // of a pose file: tum | csv (default: from the extension)
+  std::string topic;   // where a pose file's poses go
   std::vector<std::string> topics;
   std::vector<std::string> map;  // FROM:=TO
+  bool as_pose = false;
+  std::string pose_field;
   RunArgs run;
 };
 int Replay(const ReplayArgs& args);

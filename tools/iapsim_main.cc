@@ -52,8 +52,19 @@ int main(int argc, char** argv) {
                       "after the run, an MP4 of this camera's recorded images (e.g. iap/platform/chase)");
 
   ReplayArgs replay;
-  auto* replay_cmd = app.add_subcommand("replay", "play recorded topics of a bag into a run of a scenario");
-  replay_cmd->add_option("bag", replay.bag, "bag file")->required()->check(CLI::ExistingFile);
+  auto* replay_cmd = app.add_subcommand(
+      "replay", "play a command log (topics of a bag, or a TUM / CSV pose file) into a run of a scenario");
+  replay_cmd->add_option("log", replay.log, "bag, or TUM (.tum, .txt) / CSV (.csv) pose file")
+      ->required()
+      ->check(CLI::ExistingFile);
+  replay_cmd->add_option("--format", replay.format, "pose file format (default: from the extension)")
+      ->check(CLI::IsMember({"tum", "csv"}));
+  replay_cmd->add_option("--topic", replay.topic, "pose file: the topic its poses play on, as PoseStamped");
+  replay_cmd->add_flag("--as-pose", replay.as_pose,
+                       "bag: play each message's first pose as a geometry_msgs/PoseStamped (e.g. another "
+                       "vehicle's nav_msgs/Odometry)");
+  replay_cmd->add_option("--pose-field", replay.pose_field,
+                         "bag, with --as-pose: the pose's field path (e.g. bodies[0].pose_W)");
   replay_cmd->add_option("--scenario", replay.run.scenario, "scenario YAML")
       ->required()
       ->check(CLI::ExistingFile);
