@@ -44,6 +44,65 @@ Allocation::Allocation(const std::vector<Eigen::Vector3d>& joints_P_m) {
 
 Allocation::Allocation(const model::Vehicle& vehicle) : Allocation(JointsOf(vehicle)) {}
 
+bool ThrustLimits::Admits(const Eigen::Vector3d& thrust_W_N) const {
+  const double magnitude_N = thrust_W_N.norm();
+  if (magnitude_N > max_N || magnitude_N < min_N) return false;
+  // the angle from up (−z_W), with a margin for rounding at the cone's edge
+  return magnitude_N == 0.0 || -thrust_W_N.z() >= magnitude_N * std::cos(max_tilt_rad) - 1e-12 * magnitude_N;
+}
+
+Vector6d PartOf(const Vector6d& U_P, const Eigen::Matrix3d& R_WP, WrenchPart part) {
+  const Eigen::Vector3d vertical_P = R_WP.transpose() * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d force_vertical_P = vertical_P * vertical_P.dot(U_P.head<3>());
+  Vector6d out = Vector6d::Zero();
+  switch (part) {
+    case WrenchPart::kVertical:
+      out.head<3>() = force_vertical_P;
+      break;
+    case WrenchPart::kRollPitch:
+      out.segment<2>(3) = U_P.segment<2>(3);
+      break;
+    case WrenchPart::kHorizontal:
+      out.head<3>() = U_P.head<3>() - force_vertical_P;
+      break;
+    case WrenchPart::kYaw:
+      out[5] = U_P[5];
+      break;
+  }
+  return out;
+}
+
+Eigen::VectorXd AllocateWithinLimits(const Allocation& allocation, const Vector6d& U_P,
+                                     const Eigen::Matrix3d& R_WP, const std::vector<ThrustLimits>& limits,
+                                     double* kept) {
+  const int n = static_cast<int>(limits.size());
+  if (allocation.B().cols() != 3 * n) throw std::invalid_argument("one ThrustLimits per sub-aircraft");
+  const auto admitted = [&](const Eigen::VectorXd& thrusts_P_N) {
+    for (int i = 0; i < n; ++i) {
+      if (!limits[i].Admits(R_WP * thrusts_P_N.segment<3>(3 * i))) return false;
+    }
+    return true;
+  };
+  Eigen::VectorXd taken = Eigen::VectorXd::Zero(3 * n);
+  for (int p = 0; p < kWrenchParts; ++p) {
+    const Eigen::VectorXd part = allocation.Allocate(PartOf(U_P, R_WP, static_cast<WrenchPart>(p)));
+    double scale = 1.0;
+    if (!admitted(taken + part)) {
+      // the largest admitted scale: the limits are a convex set but for the minimum thrust, so the admitted
+      // scales are [0, s*] when 0 is admitted (40 halvings: s* to 1e-12)
+      double low = 0.0, high = 1.0;
+      for (int k = 0; k < 40; ++k) {
+        const double middle = 0.5 * (low + high);
+        (admitted(taken + middle * part) ? low : high) = middle;
+      }
+      scale = low;
+    }
+    taken += scale * part;
+    kept[p] = scale;
+  }
+  return taken;
+}
+
 Vector6d HoverWrench(const model::Vehicle& vehicle, const Eigen::Quaterniond& q_WP, double gravity_mps2) {
   const Eigen::Vector3d weight_P = vehicle.TotalMass_kg() * gravity_mps2 * (q_WP.conjugate() * Eigen::Vector3d::UnitZ());
   Vector6d U;

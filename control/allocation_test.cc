@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 
 namespace iapsim::control {
@@ -86,6 +87,97 @@ TEST(Allocation, RollPitchOfEquation18PointTheThrust) {
     const Eigen::Quaterniond q = AttitudeFromEuler(rp[0], rp[1], yaw);
     // FRD: thrust acts along −z of the sub-aircraft
     EXPECT_LT((q * Eigen::Vector3d(0.0, 0.0, -1.0) - thrust_W.normalized()).norm(), 1e-12) << yaw;
+  }
+}
+
+}  // namespace
+}  // namespace iapsim::control
+
+namespace iapsim::control {
+namespace {
+
+// Graceful allocation (issue 23) on the three-square at a tilted, yawed attitude: a demand beyond the limits
+// in one part of U, alone or with another, is given up in that part only, and a lower part never takes
+// authority from a higher one.
+class GracefulAllocation : public ::testing::Test {
+ protected:
+  GracefulAllocation()
+      : vehicle_(Shipped("three_square")),
+        allocation_(vehicle_),
+        R_WP_(AttitudeFromEuler(0.08, -0.05, 0.5).toRotationMatrix()) {
+    for (const auto& sub : vehicle_.sub_aircraft) {
+      const double count = static_cast<double>(sub.rotors.hub_S_m.size());
+      limits_.push_back(ThrustLimits{count * sub.rotors.MinThrust_N(), 0.9 * count * sub.rotors.MaxThrust_N(),
+                                     60.0 * M_PI / 180.0});
+    }
+    hover_ = HoverWrench(vehicle_, Eigen::Quaterniond(R_WP_), 9.81);
+    // per part a demand that alone does not fit (the three-square lifts about 2.5 times its weight)
+    const Eigen::Vector3d vertical_P = R_WP_.transpose() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d horizontal_P = R_WP_.transpose() * Eigen::Vector3d(0.6, -0.8, 0.0);
+    excess_[0] << 3.0 * hover_.head<3>(), Eigen::Vector3d::Zero();
+    excess_[1] << Eigen::Vector3d::Zero(), 60.0, -40.0, 0.0;
+    excess_[2] << 400.0 * horizontal_P, Eigen::Vector3d::Zero();
+    excess_[3] << Eigen::Vector3d::Zero(), 0.0, 0.0, 80.0;
+    EXPECT_LT(std::abs(vertical_P.dot(horizontal_P)), 1e-12);
+  }
+
+  // Allocates U, checks the result is within every limit and realises kept[p] of each part exactly.
+  std::array<double, kWrenchParts> Allocate(const Vector6d& U) {
+    std::array<double, kWrenchParts> kept;
+    const Eigen::VectorXd thrusts_P = AllocateWithinLimits(allocation_, U, R_WP_, limits_, kept.data());
+    for (size_t i = 0; i < limits_.size(); ++i) {
+      EXPECT_TRUE(limits_[i].Admits(R_WP_ * thrusts_P.segment<3>(3 * i))) << i;
+    }
+    const Vector6d realised = allocation_.B() * thrusts_P;  // fully actuated: B B⁺ = I
+    for (int p = 0; p < kWrenchParts; ++p) {
+      const auto part = static_cast<WrenchPart>(p);
+      EXPECT_LT((PartOf(realised, R_WP_, part) - kept[p] * PartOf(U, R_WP_, part)).norm(), 1e-9 * U.norm())
+          << p;
+    }
+    return kept;
+  }
+
+  model::Vehicle vehicle_;
+  Allocation allocation_;
+  Eigen::Matrix3d R_WP_;
+  std::vector<ThrustLimits> limits_;
+  Vector6d hover_;
+  std::array<Vector6d, kWrenchParts> excess_;
+};
+
+TEST_F(GracefulAllocation, PartsSumToTheWrench) {
+  const Vector6d U = hover_ + excess_[1] + excess_[2] + excess_[3];
+  Vector6d sum = Vector6d::Zero();
+  for (int p = 0; p < kWrenchParts; ++p) sum += PartOf(U, R_WP_, static_cast<WrenchPart>(p));
+  EXPECT_LT((sum - U).norm(), 1e-12 * U.norm());
+}
+
+TEST_F(GracefulAllocation, HoverFitsWhole) {
+  for (double kept : Allocate(hover_)) EXPECT_EQ(kept, 1.0);
+}
+
+TEST_F(GracefulAllocation, EachPartAloneIsCutAndTheHigherOnesKept) {
+  for (int p = 0; p < kWrenchParts; ++p) {
+    const std::array<double, kWrenchParts> kept = Allocate(hover_ + excess_[p]);
+    EXPECT_LT(kept[p], 0.99) << p;  // it did not fit
+    EXPECT_GT(kept[p], 0.0) << p;   // but some of it did
+    for (int higher = 0; higher < p; ++higher) EXPECT_EQ(kept[higher], 1.0) << p << " over " << higher;
+  }
+  // the altitude survives a yaw demand the rotors cannot give: the IAP neither climbs nor sinks
+  const std::array<double, kWrenchParts> kept = Allocate(hover_ + excess_[3]);
+  EXPECT_EQ(kept[0], 1.0);
+}
+
+TEST_F(GracefulAllocation, InPairsTheLowerPartGivesWay) {
+  for (int high = 0; high < kWrenchParts; ++high) {
+    const double alone = Allocate(hover_ + excess_[high])[high];
+    for (int low = high + 1; low < kWrenchParts; ++low) {
+      const std::array<double, kWrenchParts> kept = Allocate(hover_ + excess_[high] + excess_[low]);
+      // the higher part keeps what it kept alone (to the bisection's resolution); the lower gets the rest
+      EXPECT_NEAR(kept[high], alone, 1e-9) << high << " with " << low;
+      EXPECT_LT(kept[low], 1.0) << high << " with " << low;
+      for (int higher = 0; higher < high; ++higher) EXPECT_EQ(kept[higher], 1.0);
+    }
   }
 }
 

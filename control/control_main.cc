@@ -219,6 +219,10 @@ class ControlNode : public bridge::Process {
     if (const IapController* controller = active_controller()) {
       (*report)["rejected_updates"] = controller->rejected_updates();
       (*report)["saturated_updates"] = controller->saturated_updates();
+      // per part of the wrench, the updates that gave some of it up (control/allocation.h's order)
+      const auto& cuts = controller->part_cut_updates();
+      (*report)["allocation_cut_updates"] = {
+          {"vertical", cuts[0]}, {"roll_pitch", cuts[1]}, {"horizontal", cuts[2]}, {"yaw", cuts[3]}};
     }
     if (interaction_ != "none") {
       (*report)["interaction"] = interaction_;

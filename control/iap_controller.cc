@@ -23,6 +23,12 @@ double YawOf(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
 
 IapController::IapController(const model::Vehicle& vehicle, const IapControllerConfig& config)
     : vehicle_(vehicle), config_(config), tracker_(vehicle, config.gains, config.gravity_mps2) {
+  for (const auto& sub : vehicle_.sub_aircraft) {
+    const double count = static_cast<double>(sub.rotors.hub_S_m.size());
+    limits_.push_back(ThrustLimits{count * sub.rotors.MinThrust_N(),
+                                   config_.max_thrust_fraction * count * sub.rotors.MaxThrust_N(),
+                                   config_.max_tilt_rad});
+  }
   // Until the first valid update: the level hover at yaw 0.
   const Eigen::Quaterniond level = Eigen::Quaterniond::Identity();
   Command(level.toRotationMatrix(), 0.0,
@@ -42,8 +48,18 @@ bool IapController::Update(const PoseReference& reference, const PlatformState& 
   const double yaw_rad = config_.sub_aircraft_yaw == SubAircraftYaw::kReference
                              ? YawOf(reference.q_WP.normalized().toRotationMatrix())
                              : YawOf(R_WP);
-  Command(R_WP, yaw_rad, tracker_.allocation().Allocate(U));
+  std::array<double, kWrenchParts> kept;
+  const Eigen::VectorXd thrusts_P_N =
+      AllocateWithinLimits(tracker_.allocation(), U, R_WP, limits_, kept.data());
+  Command(R_WP, yaw_rad, thrusts_P_N);
   output_.wrench_P = U;
+  output_.kept = kept;
+  for (int p = 0; p < kWrenchParts; ++p) {
+    if (kept[p] < 1.0) {
+      ++part_cuts_[p];
+      output_.saturated = true;
+    }
+  }
   if (output_.saturated) ++saturated_;
   return true;
 }
@@ -66,15 +82,12 @@ void IapController::Command(const Eigen::Matrix3d& R_WP, double platform_yaw_rad
 }
 
 bool IapController::Limit(int i, Eigen::Vector3d* thrust_W_N) const {
-  const model::RotorSet& rotors = vehicle_.sub_aircraft[i].rotors;
-  const double count = static_cast<double>(rotors.hub_S_m.size());
-  const double max_N = config_.max_thrust_fraction * count * rotors.MaxThrust_N();
-  const double min_N = count * rotors.MinThrust_N();
+  const double max_N = limits_[i].max_N, min_N = limits_[i].min_N;
   const Eigen::Vector3d up_W = -Eigen::Vector3d::UnitZ();
   bool cut = false;
   double magnitude_N = thrust_W_N->norm();
   Eigen::Vector3d direction = magnitude_N > 0.0 ? Eigen::Vector3d(*thrust_W_N / magnitude_N) : up_W;
-  if (std::acos(std::clamp(direction.dot(up_W), -1.0, 1.0)) > config_.max_tilt_rad) {
+  if (std::acos(std::clamp(direction.dot(up_W), -1.0, 1.0)) > config_.max_tilt_rad + 1e-9) {
     // Onto the cone's edge, keeping the horizontal heading (straight down has none: then straight up).
     Eigen::Vector3d horizontal(direction.x(), direction.y(), 0.0);
     horizontal = horizontal.norm() > 1e-9 ? Eigen::Vector3d(horizontal.normalized()) : Eigen::Vector3d::Zero();

@@ -1,10 +1,12 @@
 #pragma once
 // The IAP computer of the seed's Fig. 3 / §IV-A: tracker (10) or (16) -> allocation (17) within the
-// sub-aircraft's thrust limits -> per sub-aircraft collective thrust and attitude by (18), which the
-// simulated flight controllers execute. Bus-free: the control process, tests and RL drive it in-process.
+// sub-aircraft's thrust limits, giving up yaw, then position, then attitude before altitude (issue 23) ->
+// per sub-aircraft collective thrust and attitude by (18), which the simulated flight controllers execute.
+// Bus-free: the control process, tests and RL drive it in-process.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -41,7 +43,8 @@ struct ControlOutput {
   std::vector<AttitudeCommand> sub_aircraft;
   Vector6d wrench_P = Vector6d::Zero();           // U asked by the tracker (P, about P's origin)
   Eigen::VectorXd thrusts_P_N;                    // Λ after the limits, 3n, in P
-  bool saturated = false;                         // a thrust vector was cut to its limits
+  bool saturated = false;                         // some of U was given up to fit the limits
+  std::array<double, kWrenchParts> kept{1.0, 1.0, 1.0, 1.0};  // of each WrenchPart, the share realised
 };
 
 class IapController {
@@ -57,9 +60,12 @@ class IapController {
   const Tracker& tracker() const { return tracker_; }
   uint64_t rejected_updates() const { return rejected_; }
   uint64_t saturated_updates() const { return saturated_; }
+  /// Per WrenchPart, the updates where graceful allocation gave up some of it.
+  const std::array<uint64_t, kWrenchParts>& part_cut_updates() const { return part_cuts_; }
 
  private:
-  /// Λ_i (in W) within the thrust magnitude and tilt limits; returns whether it was cut.
+  /// Λ_i (in W) onto its limits (where even the vertical part alone does not fit); returns whether it was
+  /// cut.
   bool Limit(int i, Eigen::Vector3d* thrust_W_N) const;
   void Command(const Eigen::Matrix3d& R_WP, double platform_yaw_rad, const Eigen::VectorXd& thrusts_P_N);
 
@@ -69,6 +75,8 @@ class IapController {
   ControlOutput output_;
   uint64_t rejected_ = 0;
   uint64_t saturated_ = 0;
+  std::vector<ThrustLimits> limits_;  // per sub-aircraft
+  std::array<uint64_t, kWrenchParts> part_cuts_{};
 };
 
 /// ZYX yaw of a rotation (atan2 of R e1's horizontal part).

@@ -91,14 +91,14 @@ Eigen::Vector3d FlightController::RateSetpoint(const Eigen::Quaterniond& q_WS_se
   return rate.cwiseMax(-gains_.max_rate_rad_s).cwiseMin(gains_.max_rate_rad_s);
 }
 
-bool FlightController::Update(const SubAircraftSetpoint& setpoint, const Eigen::Quaterniond& q_WS,
-                              const Eigen::Vector3d& w_WS_S, const Eigen::Vector3d& alpha_WS_S, double dt_s,
-                              RotorVector* thrusts_N) {
+MixerCut FlightController::Update(const SubAircraftSetpoint& setpoint, const Eigen::Quaterniond& q_WS,
+                                  const Eigen::Vector3d& w_WS_S, const Eigen::Vector3d& alpha_WS_S,
+                                  double dt_s, RotorVector* thrusts_N) {
   const Eigen::Vector3d rate_setpoint = setpoint.mode == SubAircraftSetpoint::Mode::kBodyRate
                                             ? setpoint.w_WS_S
                                             : RateSetpoint(setpoint.q_WS, q_WS);
   const Eigen::Vector3d rate_error = rate_setpoint - w_WS_S;
-  if (!saturated_) {  // anti-windup: no integration while the mixer cuts
+  if (!cut_.any()) {  // anti-windup: no integration while the mixer cuts
     rate_integral_rad_s2_ += gains_.rate_i_per_s2.cwiseProduct(rate_error) * dt_s;
     rate_integral_rad_s2_ = rate_integral_rad_s2_.cwiseMax(-gains_.rate_integral_limit_rad_s2)
                                 .cwiseMin(gains_.rate_integral_limit_rad_s2);
@@ -109,8 +109,8 @@ bool FlightController::Update(const SubAircraftSetpoint& setpoint, const Eigen::
       gains_.rate_d.cwiseProduct(alpha_WS_S) + setpoint.angular_acceleration_S_radps2;
   const Eigen::Vector3d torque_S =
       inertia_S_kgm2_ * angular_acceleration + w_WS_S.cross(inertia_S_kgm2_ * w_WS_S);
-  saturated_ = rotors_.Mix(setpoint.thrust_N, torque_S, thrusts_N);
-  return saturated_;
+  cut_ = rotors_.Mix(setpoint.thrust_N, torque_S, thrusts_N);
+  return cut_;
 }
 
 }  // namespace iapsim::physics

@@ -73,10 +73,10 @@ class FlightController {
 
   /// One step: from the setpoint (kAttitude or kBodyRate), the attitude and body rate, and the angular
   /// acceleration the D term acts on (zero: no D term), the rotor thrusts the mixer asks for. Returns
-  /// whether the mixer cut anything (saturation).
-  bool Update(const SubAircraftSetpoint& setpoint, const Eigen::Quaterniond& q_WS,
-              const Eigen::Vector3d& w_WS_S, const Eigen::Vector3d& alpha_WS_S, double dt_s,
-              RotorVector* thrusts_N);
+  /// what the mixer cut (saturation).
+  MixerCut Update(const SubAircraftSetpoint& setpoint, const Eigen::Quaterniond& q_WS,
+                  const Eigen::Vector3d& w_WS_S, const Eigen::Vector3d& alpha_WS_S, double dt_s,
+                  RotorVector* thrusts_N);
 
   /// The body-rate setpoint of the attitude loop (PX4's tilt-priority attitude controller).
   Eigen::Vector3d RateSetpoint(const Eigen::Quaterniond& q_WS_setpoint, const Eigen::Quaterniond& q_WS) const;
@@ -88,7 +88,7 @@ class FlightController {
   Eigen::Matrix3d inertia_S_kgm2_;
   const Rotors& rotors_;
   Eigen::Vector3d rate_integral_rad_s2_ = Eigen::Vector3d::Zero();
-  bool saturated_ = false;
+  MixerCut cut_;
 };
 
 }  // namespace iapsim::physics

@@ -120,9 +120,9 @@ void Rotors::SpeedsForThrusts(const RotorVector& thrusts_N, RotorVector* speeds_
                       .cwiseMin(set_.max_speed_rad_s);
 }
 
-bool Rotors::Mix(double thrust_N, const Eigen::Vector3d& torque_S_Nm, RotorVector* thrusts_N) const {
+MixerCut Rotors::Mix(double thrust_N, const Eigen::Vector3d& torque_S_Nm, RotorVector* thrusts_N) const {
   const double range = max_thrust_N_ - min_thrust_N_;
-  bool cut = false;
+  MixerCut cut;
   const RotorVector collective = mixer_ * Eigen::Vector4d(thrust_N, 0.0, 0.0, 0.0);
   RotorVector roll_pitch = mixer_ * Eigen::Vector4d(0.0, torque_S_Nm.x(), torque_S_Nm.y(), 0.0);
   const RotorVector yaw = mixer_ * Eigen::Vector4d(0.0, 0.0, 0.0, torque_S_Nm.z());
@@ -131,7 +131,7 @@ bool Rotors::Mix(double thrust_N, const Eigen::Vector3d& torque_S_Nm, RotorVecto
   const double spread = roll_pitch.maxCoeff() - roll_pitch.minCoeff();
   if (spread > range) {
     roll_pitch *= range / spread;
-    cut = true;
+    cut.roll_pitch = true;
   }
   // 2. shift the collective thrust so roll/pitch fit (changes the thrust, keeps the attitude)
   RotorVector thrusts = collective + roll_pitch;
@@ -139,10 +139,10 @@ bool Rotors::Mix(double thrust_N, const Eigen::Vector3d& torque_S_Nm, RotorVecto
   const double under = min_thrust_N_ - thrusts.minCoeff();
   if (over > 1e-12) {
     thrusts.array() -= over;
-    cut = true;
+    cut.thrust = true;
   } else if (under > 1e-12) {
     thrusts.array() += under;
-    cut = true;
+    cut.thrust = true;
   }
   // 3. as much yaw as still fits
   double yaw_scale = 1.0;
@@ -151,7 +151,7 @@ bool Rotors::Mix(double thrust_N, const Eigen::Vector3d& torque_S_Nm, RotorVecto
     if (yaw[j] < 0.0) yaw_scale = std::min(yaw_scale, (min_thrust_N_ - thrusts[j]) / yaw[j]);
   }
   yaw_scale = std::max(yaw_scale, 0.0);
-  if (yaw_scale < 1.0) cut = true;
+  if (yaw_scale < 1.0) cut.yaw = true;
   *thrusts_N = (thrusts + yaw_scale * yaw).cwiseMax(min_thrust_N_).cwiseMin(max_thrust_N_);
   return cut;
 }

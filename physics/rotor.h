@@ -49,6 +49,12 @@ inline double WakeRadius_m(double distance_m, double radius_m) {  // inline: the
 constexpr int kWakeCells = 19;
 const std::array<Eigen::Vector2d, kWakeCells>& WakeCells();
 
+/// What a mixer gave up of its demand, per axis.
+struct MixerCut {
+  bool roll_pitch = false, thrust = false, yaw = false;
+  bool any() const { return roll_pitch || thrust || yaw; }
+};
+
 class Rotors {
  public:
   /// `com_S_m`: the sub-aircraft's centre of mass in S, the point torques are taken about.
@@ -91,8 +97,9 @@ class Rotors {
 
   /// Per-rotor thrusts for a collective thrust (N, along −z_S) and torque about the CoM (N·m, in S), within
   /// [min_thrust, max_thrust]. When the limits bind, roll/pitch torque wins over collective thrust, and
-  /// both over yaw torque (PX4's mixer priorities). Returns whether anything was cut.
-  bool Mix(double thrust_N, const Eigen::Vector3d& torque_S_Nm, RotorVector* thrusts_N) const;
+  /// both over yaw torque (PX4's mixer priorities: a quadrotor keeps its attitude first). Returns what was
+  /// cut.
+  MixerCut Mix(double thrust_N, const Eigen::Vector3d& torque_S_Nm, RotorVector* thrusts_N) const;
 
  private:
   model::RotorSet set_;

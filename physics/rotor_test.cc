@@ -59,7 +59,7 @@ TEST(Rotors, MixerIsExactInsideTheLimitsAndKeepsTiltOverYaw) {
   Rotors rotors(sub.rotors, Eigen::Vector3d(0.0, 0.0, 0.01));
   RotorVector thrusts, speeds;
   const Eigen::Vector3d torque(0.3, -0.2, 0.05);
-  EXPECT_FALSE(rotors.Mix(18.0, torque, &thrusts));
+  EXPECT_FALSE(rotors.Mix(18.0, torque, &thrusts).any());
   rotors.SpeedsForThrusts(thrusts, &speeds);
   rotors.SetSpeeds(speeds);
   Eigen::Vector3d force, made;
@@ -68,7 +68,10 @@ TEST(Rotors, MixerIsExactInsideTheLimitsAndKeepsTiltOverYaw) {
   EXPECT_LT((made - torque).norm(), 1e-9);
 
   // a yaw demand no motor can meet is cut; roll and thrust survive
-  EXPECT_TRUE(rotors.Mix(18.0, Eigen::Vector3d(0.3, 0.0, 5.0), &thrusts));
+  const MixerCut cut = rotors.Mix(18.0, Eigen::Vector3d(0.3, 0.0, 5.0), &thrusts);
+  EXPECT_TRUE(cut.yaw);
+  EXPECT_FALSE(cut.roll_pitch);
+  EXPECT_FALSE(cut.thrust);
   rotors.SpeedsForThrusts(thrusts, &speeds);
   rotors.SetSpeeds(speeds);
   rotors.Wrench_S(&force, &made);
@@ -80,6 +83,58 @@ TEST(Rotors, MixerIsExactInsideTheLimitsAndKeepsTiltOverYaw) {
     EXPECT_LE(thrusts[j], rotors.max_thrust_N() + 1e-12);
     EXPECT_GE(thrusts[j], rotors.min_thrust_N() - 1e-12);
   }
+}
+
+// The mixer's order, axis by axis alone and in pairs: yaw is given up first, then the collective thrust,
+// and roll/pitch last (PX4's mixer: a quadrotor keeps its attitude).
+TEST(Rotors, MixerGivesUpYawThenThrustThenRollPitch) {
+  const model::SubAircraft sub = F450();
+  Rotors rotors(sub.rotors, Eigen::Vector3d::Zero());
+  const double hover_N = 15.0, max_N = 4.0 * rotors.max_thrust_N();
+  // what the rotors make of a demand: collective thrust and torque
+  const auto made = [&](double thrust_N, const Eigen::Vector3d& torque_S, MixerCut* cut) {
+    RotorVector thrusts, speeds;
+    *cut = rotors.Mix(thrust_N, torque_S, &thrusts);
+    rotors.SpeedsForThrusts(thrusts, &speeds);
+    rotors.SetSpeeds(speeds);
+    Eigen::Vector3d force, torque;
+    rotors.Wrench_S(&force, &torque);
+    Eigen::Vector4d out;
+    out << -force.z(), torque;
+    return out;
+  };
+  const Eigen::Vector3d roll(1.2, 0.0, 0.0), yaw(0.0, 0.0, 2.0);  // yaw: more than fits on top of a hover
+  MixerCut cut;
+  // alone
+  Eigen::Vector4d out = made(1.5 * max_N, Eigen::Vector3d::Zero(), &cut);
+  EXPECT_TRUE(cut.thrust && !cut.roll_pitch && !cut.yaw);
+  EXPECT_NEAR(out[0], max_N, 1e-9);
+  out = made(0.9 * max_N, roll, &cut);  // roll kept whole, the thrust lowered to make room
+  EXPECT_TRUE(cut.thrust && !cut.roll_pitch && !cut.yaw);
+  EXPECT_NEAR(out[1], roll.x(), 1e-9);
+  EXPECT_LT(out[0], 0.9 * max_N);
+  out = made(hover_N, yaw, &cut);
+  EXPECT_TRUE(cut.yaw && !cut.thrust && !cut.roll_pitch);
+  EXPECT_NEAR(out[0], hover_N, 1e-9);
+  EXPECT_GT(out[3], 0.0);
+  EXPECT_LT(out[3], yaw.z());
+  out = made(hover_N, 5.0 * roll, &cut);  // more roll than the motors' range: roll itself is cut
+  EXPECT_TRUE(cut.roll_pitch);
+  EXPECT_GT(out[1], roll.x());
+  // in pairs: the lower axis gives way, the higher keeps what it had alone
+  out = made(hover_N, roll + yaw, &cut);
+  EXPECT_TRUE(cut.yaw);
+  EXPECT_NEAR(out[1], roll.x(), 1e-9);
+  EXPECT_NEAR(out[0], hover_N, 1e-9);
+  EXPECT_LT(out[3], made(hover_N, yaw, &cut)[3]);  // less yaw than alone: roll took the motors' room
+  out = made(1.5 * max_N, yaw, &cut);
+  EXPECT_TRUE(cut.thrust && cut.yaw);
+  EXPECT_NEAR(out[0], max_N, 1e-9);
+  EXPECT_NEAR(out[3], 0.0, 1e-9);  // every motor at its maximum: no room for yaw
+  out = made(1.5 * max_N, roll, &cut);
+  EXPECT_TRUE(cut.thrust && !cut.roll_pitch);
+  EXPECT_NEAR(out[1], roll.x(), 1e-9);
+  EXPECT_LT(out[0], max_N);
 }
 
 // Ground effect against Cheeseman & Bennett's T_IGE / T_OGE = 1 / (1 − (R / 4z)²), worked by hand.

@@ -363,7 +363,8 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
     Eigen::Vector3d w_WS_S, alpha_WS_S;
     SenseRotation(sim, state, &q_WS, &w_WS_S, &alpha_WS_S);
     out.q_WS_flight_controller = q_WS;
-    out.saturated = sim.controller->Update(sim.setpoint, q_WS, w_WS_S, alpha_WS_S, dt, &thrusts);
+    const MixerCut cut = sim.controller->Update(sim.setpoint, q_WS, w_WS_S, alpha_WS_S, dt, &thrusts);
+    out.saturated = cut.any();
     if (sim.drive) {
       sim.drive->Step(thrusts, dt, sim.rotors.get());
       out.throttle = sim.drive->throttle();
@@ -376,6 +377,9 @@ void Simulation::ApplySubAircraft(VehicleSim& vehicle, int s) {
     }
     out.rotor_speeds_rad_s = sim.rotors->speeds_rad_s();
     if (out.saturated) ++vehicle.output.saturated_steps;
+    vehicle.output.mixer_cut_steps.roll_pitch += cut.roll_pitch ? 1 : 0;
+    vehicle.output.mixer_cut_steps.thrust += cut.thrust ? 1 : 0;
+    vehicle.output.mixer_cut_steps.yaw += cut.yaw ? 1 : 0;
   }
   world_.AddForce_W(body, out.thrust_W_N);
   const Eigen::Vector3d torque_W = state.q_WB * out.torque_S_Nm;

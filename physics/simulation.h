@@ -199,6 +199,9 @@ struct VehicleOutput {
   Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();  // body and rotor drag, downwash on all its parts
   uint64_t invalid_commands = 0;  // rejected setpoints (NaN, infinite, non-unit quaternion)
   uint64_t saturated_steps = 0;   // sub-aircraft steps where a mixer cut
+  struct {
+    uint64_t roll_pitch = 0, thrust = 0, yaw = 0;
+  } mixer_cut_steps;  // the same per axis (Rotors::Mix's order: yaw is cut first, roll/pitch last)
 };
 
 /// A latch after the last step. The errors are those of port b relative to port a, in a's port axes.
