@@ -63,17 +63,26 @@ TEST(Allocation, HoverThrustsCarryTheWeightWithNoMoment) {
     SCOPED_TRACE(name);
     const model::Vehicle vehicle = Shipped(name);
     const Allocation a(vehicle);
-    const Eigen::Quaterniond level = Eigen::Quaterniond::Identity();
-    const Eigen::VectorXd thrusts = a.Allocate(HoverWrench(vehicle, level, 9.81));
-    Eigen::Vector3d force = Eigen::Vector3d::Zero(), moment = Eigen::Vector3d::Zero();
     const Eigen::Vector3d d_0 = vehicle.CenterOfMass_P_m();
-    for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) {
-      const Eigen::Vector3d f = thrusts.segment<3>(3 * i);
-      force += f;
-      moment += (vehicle.sub_aircraft[i].joint_P_m - d_0).cross(f);
+    // the joints sit below the plate: at a tilt the weight has a moment about P's origin to hold
+    ASSERT_GT(std::abs(d_0.z()), 1e-3);
+    const Eigen::Quaterniond level = Eigen::Quaterniond::Identity();
+    // a tilt about the joint line of an under-actuated IAP (rank 5) has a moment no thrust can hold
+    std::vector<Eigen::Quaterniond> attitudes{level};
+    if (a.fully_actuated()) attitudes.push_back(AttitudeFromEuler(0.17, -0.26, 0.7));
+    for (const Eigen::Quaterniond& q_WP : attitudes) {
+      const Eigen::VectorXd thrusts = a.Allocate(HoverWrench(vehicle, q_WP, 9.81));
+      Eigen::Vector3d force = Eigen::Vector3d::Zero(), moment = Eigen::Vector3d::Zero();
+      for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) {
+        const Eigen::Vector3d f = thrusts.segment<3>(3 * i);
+        force += f;
+        moment += (vehicle.sub_aircraft[i].joint_P_m - d_0).cross(f);
+      }
+      // in W: the thrusts' resultant is the weight's opposite, and their moment about the CoM zero
+      EXPECT_LT((q_WP * force + vehicle.TotalMass_kg() * 9.81 * Eigen::Vector3d::UnitZ()).norm(), 1e-9);
+      EXPECT_LT(moment.norm(), 1e-9);
     }
-    EXPECT_LT((force + vehicle.TotalMass_kg() * 9.81 * Eigen::Vector3d::UnitZ()).norm(), 1e-9);
-    EXPECT_LT(moment.norm(), 1e-9);
+    const Eigen::VectorXd thrusts = a.Allocate(HoverWrench(vehicle, level, 9.81));
     // the same split as the level trim the physics starts vehicles in
     const Eigen::VectorXd trim = vehicle.LevelHoverThrusts_N(9.81);
     for (size_t i = 0; i < vehicle.sub_aircraft.size(); ++i) EXPECT_NEAR(-thrusts[3 * i + 2], trim[i], 1e-9);

@@ -118,11 +118,14 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const bridge::BagRea
   csv << "t_s,x_ref_m,y_ref_m,z_ref_m,x_m,y_m,z_m,roll_ref_deg,pitch_ref_deg,yaw_ref_deg,roll_deg,pitch_deg,"
          "yaw_deg\n";
   ErrorStats position, attitude;
-  size_t n = 0;
+  size_t n = 0, unmatched = 0;
   const int64_t t0_ns = references.front().first;
   for (const auto& [stamp_ns, reference] : references) {
     const auto state = states.find(stamp_ns);
-    if (state == states.end()) continue;  // a state not recorded (recording filters): nothing to compare
+    if (state == states.end()) {  // a state not recorded (recording filters, a lost message): reported
+      ++unmatched;
+      continue;
+    }
     const Pose& actual = state->second;
     position.Add(actual.p_m - reference.p_m);
     Eigen::Vector3d e_rpy;
@@ -144,6 +147,7 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const bridge::BagRea
   nlohmann::json tracking;
   tracking["vehicle"] = evaluation.vehicle;
   tracking["samples"] = n;
+  tracking["unmatched_setpoints"] = unmatched;
   tracking["duration_s"] = static_cast<double>(references.back().first - t0_ns) * 1e-9;
   tracking["five_dof"] = five_dof;
   tracking["position_rmse_m"] = position.Json(kAxes, 1.0, n, true);
@@ -193,6 +197,10 @@ void PrintTracking(const nlohmann::json& tracking) {
   row("position max", "position_max_m", kAxes, "m");
   row("attitude RMSE", "attitude_rmse_deg", kAngles, "deg");
   row("attitude max", "attitude_max_deg", kAngles, "deg");
+  if (tracking.value("unmatched_setpoints", uint64_t{0}) > 0) {
+    std::printf("    %llu setpoints without a state of their stamp (not compared)\n",
+                static_cast<unsigned long long>(tracking["unmatched_setpoints"].get<uint64_t>()));
+  }
   std::printf("    saturation: %llu allocations cut, %llu steps with a mixer cut\n",
               static_cast<unsigned long long>(tracking["saturated_updates"].get<uint64_t>()),
               static_cast<unsigned long long>(tracking["mixer_saturated_steps"].get<uint64_t>()));

@@ -27,7 +27,8 @@ std::optional<TrackingEvaluation> ReadTrackingEvaluation(bridge::YamlMap& evalua
 /// Evaluates the run in run_dir from its bag (run_dir/run.bag, opened by the caller). Metrics: position
 /// error per W axis (RMSE, max |e|, m), ZYX Euler angle error (RMSE, max |e|, degrees; for an under-actuated
 /// IAP or a 5-DOF reference pitch and yaw are exactly the x axis's elevation and heading, and roll is the
-/// free swing), saturation counts. Throws std::runtime_error
+/// free swing), the samples compared and the setpoints without a state of their stamp
+/// (unmatched_setpoints: not compared), saturation counts. Throws std::runtime_error
 /// naming the file when the recording lacks the topics.
 nlohmann::json EvaluateTracking(const std::string& run_dir, const bridge::BagReader& bag,
                                 const TrackingEvaluation& evaluation);

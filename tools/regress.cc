@@ -83,7 +83,8 @@ void ReadAxisBounds(bridge::YamlMap& map, const std::string& section, const std:
   }
 }
 
-// The bounds of a flight (or of its monte_carlo block): `max` on the tracking metrics, `contact_max` and
+// The bounds of a flight (or of its monte_carlo block): `max` on the tracking metrics, `min: {samples}` on
+// the number of samples compared, `contact_max` and
 // `contact_min` on the contact metrics (contact_evaluation.h) by dotted path, e.g. wrench_error_relative.fy.
 std::vector<Bound> ReadBounds(bridge::YamlMap& map) {
   std::vector<Bound> bounds;
@@ -92,7 +93,7 @@ std::vector<Bound> ReadBounds(bridge::YamlMap& map) {
   ReadAxisBounds(max, "position_max_m", {"x", "y", "z"}, &bounds);
   ReadAxisBounds(max, "attitude_rmse_deg", {"roll", "pitch", "yaw"}, &bounds);
   ReadAxisBounds(max, "attitude_max_deg", {"roll", "pitch", "yaw"}, &bounds);
-  for (const char* count : {"saturated_updates", "mixer_saturated_steps"}) {
+  for (const char* count : {"saturated_updates", "mixer_saturated_steps", "unmatched_setpoints"}) {
     if (!max.Has(count)) continue;
     Bound bound{"tracking", count, "", 0.0, kUnchecked};
     double value = 0.0;
@@ -102,6 +103,15 @@ std::vector<Bound> ReadBounds(bridge::YamlMap& map) {
     bounds.push_back(bound);
   }
   max.Finish();
+  // a flight that compared fewer samples than it should (a recording that lost messages) is a regression
+  bridge::YamlMap min = map.Map("min");
+  if (min.Has("samples")) {
+    Bound bound{"tracking", "samples", "", kUnchecked, 0.0};
+    min.Required("samples", &bound.min);
+    if (!(bound.min >= 1.0)) min.Fail("samples", "must be a positive count");
+    bounds.push_back(bound);
+  }
+  min.Finish();
   for (const char* kind : {"contact_max", "contact_min"}) {
     bridge::YamlMap limits = map.Map(kind);
     for (const std::string& metric : limits.Keys()) {
