@@ -37,6 +37,15 @@ head -1 "$work/uwb.csv" | grep -q "^time_s,header.seq,header.stamp" || fail "csv
   --map /iap/uwb:=/old/uwb --duration 1 --out "$work/replayed" > /dev/null
 "$iapsim" info "$work/replayed/run.bag" > "$work/replayed.out"
 grep -Eq "^/old/uwb +iapsim_msgs/UwbRanges +201 " "$work/replayed.out" || fail "replay: $(cat "$work/replayed.out")"
+# restamp: false keeps the recorded header stamps (played at the same re-based times): the first
+# replayed message carries the recording's first stamp, not its own play time
+stamp_of_first() { "$iapsim" export "$1" --topic "$2" --format csv 2> /dev/null | sed -n 2p | cut -d, -f3; }
+"$iapsim" replay "$work/run/run.bag" --scenario "$src/configs/scenarios/bus_demo.yaml" --topics /iap/uwb \
+  --map /iap/uwb:=/old/uwb --duration 1 --out "$work/replayed_kept" \
+  --set processes.replayer.params.restamp=false > /dev/null
+recorded=$(stamp_of_first "$work/run/run.bag" /iap/uwb)
+[ "$(stamp_of_first "$work/replayed_kept/run.bag" /old/uwb)" = "$recorded" ] || fail "restamp false changed the stamp"
+[ "$(stamp_of_first "$work/replayed/run.bag" /old/uwb)" != "$recorded" ] || fail "restamp kept the recorded stamp"
 # replay of a pose file: the poses need a topic; a bad line is named with its file and line number
 expect_exit() {  # CODE TEXT COMMAND...: expects the exit code and TEXT on its standard error
   set +e
@@ -154,10 +163,12 @@ grep -q "$work/bad.yaml:[0-9]*:[0-9]*: duration_s: expected a number" "$work/bad
 "$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --mode realtime --duration 60 --out "$work/live" \
   > "$work/live.out" 2>&1 &
 launcher=$!
-for _ in $(seq 100); do
-  [ -f "$work/live/log.txt" ] && grep -q "clock started" "$work/live/log.txt" && break
+started=false
+for _ in $(seq 300); do  # up to 30 s on a loaded machine
+  if [ -f "$work/live/log.txt" ] && grep -q "clock started" "$work/live/log.txt"; then started=true; break; fi
   sleep 0.1
 done
+$started || fail "the realtime run did not start its clock: $(cat "$work/live.out")"
 "$iapsim" topics --run "$work/live" --listen 1 > "$work/topics.out" || fail "topics: $(cat "$work/topics.out") $(cat "$work/live.out")"
 grep -Eq "^/iap/state +iapsim_msgs/IapState +physics" "$work/topics.out" || fail "topics: $(cat "$work/topics.out")"
 set +e
@@ -176,7 +187,9 @@ code=$?
 set -e
 elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
 [ $code -eq 130 ] || fail "SIGTERM: launcher exited $code: $(cat "$work/live.out")"
-[ $elapsed_ms -lt 2000 ] || fail "SIGTERM: stopping took $elapsed_ms ms"
+# the contract is that a stop never hangs: the launcher asks, then sends SIGTERM, then SIGKILL, within
+# about 6 s whatever the processes do (a loaded machine takes longer than an idle one)
+[ $elapsed_ms -lt 10000 ] || fail "SIGTERM: stopping took $elapsed_ms ms"
 if pgrep -f -- "$work/live" > /dev/null; then fail "processes left behind: $(pgrep -af -- "$work/live")"; fi
 "$iapsim" info "$work/live/run.bag" > /dev/null || fail "the stopped run's bag is not readable"
 
