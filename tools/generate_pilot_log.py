@@ -32,7 +32,7 @@ def quaternion_zyx(roll, pitch, yaw):
             cr * cp * cy + sr * sp * sy)
 
 
-def events(rng, duration_s, max_speed, box, tilt_deg, yaw_step_deg):
+def events(rng, duration_s, max_speed, tilt_deg, yaw_step_deg):
     """The pilot's inputs as (start time, kind, value) over the flight, 1.5 to 4 s apart."""
     t = 2.0
     out = []
@@ -61,7 +61,7 @@ def main():
     parser.add_argument("--yaw-step", type=float, default=20.0, help="deg")
     args = parser.parse_args()
     rng = random.Random(args.seed)
-    plan = events(rng, args.duration, args.max_speed, args.box, args.tilt, args.yaw_step)
+    plan = events(rng, args.duration, args.max_speed, args.tilt, args.yaw_step)
 
     position = list(args.start)
     rpy_deg = [0.0, 0.0, 0.0]

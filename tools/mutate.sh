@@ -28,9 +28,11 @@ if [ -n "$build_dir" ]; then
   # a mutant left in the tree by an interruption is put back
   trap 'for f in $(find "$tree" -name "*.mutate-orig" -not -path "*/build/*"); do mv "$f" "${f%.mutate-orig}"; touch "${f%.mutate-orig}"; done' EXIT
 else
-  # the copy: the committed tree plus the working changes, without build outputs
+  # the copy: the committed tree plus the working changes, without build outputs; tar keeps the files'
+  # times, so a kept build recompiles only what changed
   tree=$work/tree build=$work/build
-  rsync -a --delete --exclude build --exclude .git "$src/" "$tree/"
+  rm -rf "$tree" && mkdir -p "$tree"
+  (cd "$src" && tar --exclude=./build --exclude=./.git -cf - .) | (cd "$tree" && tar -xf -)
   cmake -S "$tree" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release > "$work/cmake.log"
 fi
 
