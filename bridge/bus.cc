@@ -451,6 +451,8 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
       const timespec wait{static_cast<time_t>(left.count() / 1000000), static_cast<long>(left.count() % 1000000) * 1000};
       event = ppoll(fds.data(), fds.size(), &wait, nullptr) != 0;
     }
+    ++stats_.sleeps;
+    if (!event) ++stats_.sleeps_timed_out;
     if (impl.shm_subscriber && announce) impl.shm_subscriber->WakeUp();
     // a socket's news (a subscriber, a bigger queue, a hang-up) is taken at once; after a timeout, as
     // often as ever (a polling subscriber wakes hundreds of times a second)

@@ -72,6 +72,10 @@ struct TopicCounters {
 struct BusStats {
   std::map<std::string, TopicCounters> topics;
   uint64_t malformed = 0;  // frames that were not a well-formed iapsim message
+  uint64_t sleeps = 0;     // Spin calls that found nothing and slept
+  // sleeps that ran to their timeout: a subscriber woken by its publishers (poll_period 0) only times out
+  // when nothing was sent to it (the ZeroMQ path cannot tell and counts none)
+  uint64_t sleeps_timed_out = 0;
 };
 
 /// Metadata of a received message.

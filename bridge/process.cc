@@ -45,7 +45,10 @@ nlohmann::json BusReport(const BusStats& stats) {
   for (const auto& [topic, c] : stats.topics) {
     topics[topic] = {{"sent", c.sent}, {"dropped", c.dropped}, {"received", c.received}, {"lost", c.lost}};
   }
-  return {{"topics", topics}, {"malformed", stats.malformed}};
+  return {{"topics", topics},
+          {"malformed", stats.malformed},
+          {"sleeps", stats.sleeps},
+          {"sleeps_timed_out", stats.sleeps_timed_out}};
 }
 
 class Runtime {
@@ -192,6 +195,11 @@ class Runtime {
             wall_start +
             std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
                 static_cast<double>(info.stamp_ns + step_ns) * 1e-9 / scenario_.clock.realtime_factor));
+        // a step that ends after its slot: the clock itself (with the processes it waited on) fell behind
+        if (const auto behind = Clock::now() - target; behind > Clock::duration::zero()) {
+          ++behind_schedule_.steps;
+          behind_schedule_.max = std::max(behind_schedule_.max, behind);
+        }
         while (Clock::now() < target) {
           bus_.Spin(std::min(std::chrono::duration_cast<std::chrono::microseconds>(target - Clock::now()),
                              std::chrono::microseconds(1000)));
@@ -336,6 +344,11 @@ class Runtime {
                              {"process", process_report},
                              {"completed", finished_},
                              {"sim_time_s", static_cast<double>(sim_ns_) * 1e-9}};
+    if (self_.role == ProcessRole::kClock && scenario_.mode == ClockMode::kRealtime) {
+      report["behind_schedule"] = {
+          {"steps", behind_schedule_.steps},
+          {"max_ms", std::chrono::duration<double, std::milli>(behind_schedule_.max).count()}};
+    }
     if (!late_acks_.empty()) {
       nlohmann::json late = nlohmann::json::object();
       for (size_t m = 0; m < late_acks_.size(); ++m) late[schedule_.members()[m].name] = late_acks_[m];
@@ -374,6 +387,10 @@ class Runtime {
     uint64_t waits = 0;  // steps at which the clock waited for it to catch up
   };
   std::vector<LagStats> lags_;  // per member; the clock owner's only
+  struct {
+    uint64_t steps = 0;
+    Clock::duration max{};
+  } behind_schedule_;  // realtime, the clock owner: steps done after their wall-clock slot, by how much
   std::vector<StepInfo> waiting_ticks_;
   std::vector<int> not_due_, muted_;  // clock owner: schedule members not due at a step; those muted now
   std::vector<std::string> muted_names_;

@@ -338,6 +338,8 @@ int Bench(const BenchArgs& args) {
   if (all) std::printf("\n");
   if (args.what == "record" || all) status |= BenchRecord(args.scenario, args.repeats, &report);
   if (all) std::printf("\n");
+  if (args.what == "launch" || all) status |= BenchLaunch(args.scenario, args.repeats, &report);
+  if (all) std::printf("\n");
   if (args.what == "fidelity" || all) status |= BenchFidelity(args.vehicle, &report);
   if (all) std::printf("\n");
   if (args.what == "rl" || all) status |= BenchRl(args.task, &report);

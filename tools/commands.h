@@ -100,6 +100,11 @@ int BenchRender(const std::string& scene_path, const std::string& vehicle_path, 
 /// alternating: best and median, real-time factor, the recorded/unrecorded ratio and the bag's size.
 int BenchRecord(const std::string& scenario, int repeats, nlohmann::json* report);
 
+/// The launcher's wall-clock behaviour on `scenario`, `repeats` runs each: how long a run takes to end after
+/// a participant is killed and after a stop request (SIGINT), and the real-time factor, late steps and late
+/// acknowledgements of realtime mode at 1x and 2x.
+int BenchLaunch(const std::string& scenario, int repeats, nlohmann::json* report);
+
 /// Issue 19's reference checks (tools/fidelity_reference.h) on the vehicle and its first sub-aircraft: a 1 N
 /// step force, a 10° attitude step and the rate loop's frequency response, a pack's hover discharge, each
 /// beside its linear model or published value, ideal and realistic actuation.

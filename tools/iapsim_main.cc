@@ -142,18 +142,18 @@ int main(int argc, char** argv) {
 
   BenchArgs bench;
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
-  bench_cmd->add_option("what", bench.what, "bus, physics, render, record, fidelity, rl or all")
-      ->check(CLI::IsMember({"bus", "physics", "render", "record", "fidelity", "rl", "all"}));
+  bench_cmd->add_option("what", bench.what, "bus, physics, render, record, launch, fidelity, rl or all")
+      ->check(CLI::IsMember({"bus", "physics", "render", "record", "launch", "fidelity", "rl", "all"}));
   bench_cmd->add_option("--vehicle", bench.vehicle,
                         "physics, render, fidelity: the vehicle to measure (default the three-star)");
   bench_cmd->add_option("--scene", bench.scene, "render: the scene (default configs/scenes/buildings.yaml)");
   bench_cmd
       ->add_option(
           "--scenario", bench.scenario,
-          "record: the lockstep scenario; physics: the scenario whose ideal and realistic profiles are "
+          "record, launch: the scenario run; physics: the scenario whose ideal and realistic profiles are "
           "compared (default configs/regression/three_star_spiral.yaml)")
       ->check(CLI::ExistingFile);
-  bench_cmd->add_option("--repeat", bench.repeats, "record: runs of each variant (default 3)")
+  bench_cmd->add_option("--repeat", bench.repeats, "record, launch: runs of each variant (default 3)")
       ->check(CLI::Range(1, 100));
   bench_cmd->add_option("--task", bench.task, "rl: the docking task (default configs/rl/docking.yaml)")
       ->check(CLI::ExistingFile);

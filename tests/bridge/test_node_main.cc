@@ -42,6 +42,8 @@ class TestNode : public Process {
     params.OptionalInRange("command_period_steps", &command_period_steps_, uint64_t{0}, uint64_t{1000000});
     params.Optional("kill_at_step", &kill_at_step_);
     params.Optional("hang_at_step", &hang_at_step_);
+    params.Optional("stall_at_step", &stall_at_step_);
+    params.OptionalInRange("stall_s", &stall_s_, 0.0, 10.0);
     params.OptionalInRange("setup_delay_s", &setup_delay_s_, 0.0, 10.0);
     params.Optional("expect_uwb_of_step", &expect_uwb_of_step_);
   }
@@ -82,6 +84,9 @@ class TestNode : public Process {
     }
     if (static_cast<int64_t>(step.step) == hang_at_step_) {
       while (true) std::this_thread::sleep_for(std::chrono::seconds(1));
+    }
+    if (static_cast<int64_t>(step.step) == stall_at_step_) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(stall_s_));  // one slow step
     }
     ++steps_;
     if (behavior_ == "clock") return StepClock(step);
@@ -176,6 +181,8 @@ class TestNode : public Process {
   uint64_t command_period_steps_ = 1;  // clock: controller period in steps (0: no controller)
   int64_t kill_at_step_ = -1;
   int64_t hang_at_step_ = -1;
+  int64_t stall_at_step_ = -1;
+  double stall_s_ = 0.0;
   double setup_delay_s_ = 0.0;
   bool expect_uwb_of_step_ = false;
   int64_t uwb_stamp_ns_ = -1;

@@ -4,9 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
-#include <functional>
 
-#include "control/admittance.h"
 #include "control/iap_controller.h"
 #include "physics/simulation.h"
 #include "tests/control/in_process_iap.h"
@@ -28,18 +26,10 @@ class ClosedLoop {
     sim_ = testing::MakeSimulation(vehicle_, start_W_m);
   }
 
-  /// The reference at each control step, from the state there (an outer loop such as the admittance).
-  using ReferenceSource = std::function<PoseReference(const PlatformState&)>;
-
   /// Flies `duration_s` towards `reference`, with `force_W_N` pushing the platform; `known_force` passes
   /// that force to the tracker as its F_e.
   void Fly(const PoseReference& reference, double duration_s,
            const Eigen::Vector3d& force_W_N = Eigen::Vector3d::Zero(), bool known_force = false) {
-    Fly([&reference](const PlatformState&) { return reference; }, duration_s, force_W_N, known_force);
-  }
-
-  void Fly(const ReferenceSource& reference, double duration_s, const Eigen::Vector3d& force_W_N,
-           bool known_force) {
     const int platform = sim_->output(0).platform_body;
     const int steps = static_cast<int>(std::lround(duration_s / kPhysicsStep_s));
     for (int k = 0; k < steps; ++k) {
@@ -47,7 +37,7 @@ class ClosedLoop {
         const PlatformState state = State();
         Vector6d F_e = Vector6d::Zero();
         if (known_force) F_e.head<3>() = state.q_WP.conjugate() * force_W_N;
-        ASSERT_TRUE(controller_.Update(reference(state), state, F_e, kStepsPerControl * kPhysicsStep_s));
+        ASSERT_TRUE(controller_.Update(reference, state, F_e, kStepsPerControl * kPhysicsStep_s));
         for (size_t i = 0; i < vehicle_.sub_aircraft.size(); ++i) {
           physics::SubAircraftSetpoint setpoint;
           setpoint.thrust_N = controller_.output().sub_aircraft[i].thrust_N;
@@ -102,9 +92,10 @@ TEST(ClosedLoop, FullyActuatedIapsReachAPoseStep) {
     const double attitude_error_deg = loop.AttitudeError_rad(target) * 180.0 / M_PI;
     std::printf("%s: 6-DOF step, after 30 s: %.4f m, %.3f deg\n", name.c_str(), position_error_m,
                 attitude_error_deg);
-    // Table II's integral gains leave a slow tail (poles near −0.2 ± 0.16i rad/s in yaw)
-    EXPECT_LT(position_error_m, 0.01) << name;
-    EXPECT_LT(attitude_error_deg, 0.25) << name;
+    // Table II's integral gains leave a slow tail (poles near −0.2 ± 0.16i rad/s in yaw); measured
+    // 0.0033 m and 0.106 / 0.104 deg
+    EXPECT_LT(position_error_m, 0.007) << name;
+    EXPECT_LT(attitude_error_deg, 0.21) << name;
     EXPECT_EQ(loop.controller().rejected_updates(), 0u);
   }
 }
@@ -125,8 +116,9 @@ TEST(ClosedLoop, APushIsRejectedByTheIntegralOrCancelledWhenKnown) {
   std::printf(
       "three_star, 3.6 N push: %.3f m after 2 s, %.4f m after 42 s; told to the tracker: %.4f m after 2 s\n",
       pushed_m, settled_m, known_m);
-  EXPECT_GT(pushed_m, 0.1);            // the push does move it ...
-  EXPECT_LT(settled_m, 0.01);          // ... the integral brings it back ...
+  // measured 0.395 m, 0.0012 m, 0.019 m
+  EXPECT_GT(pushed_m, 0.3);            // the push does move it ...
+  EXPECT_LT(settled_m, 0.0025);        // ... the integral brings it back ...
   EXPECT_LT(known_m, 0.1 * pushed_m);  // ... and F_e cancels it from the start
 }
 
@@ -146,34 +138,11 @@ TEST(ClosedLoop, UnderActuatedIapsTrackPositionPitchAndYaw) {
     const double axis_error_deg = loop.AxisError_rad(target) * 180.0 / M_PI;
     std::printf("%s: 5-DOF step, after 30 s: %.4f m, x axis %.3f deg; roll swung at most %.2f deg\n",
                 name.c_str(), position_error_m, axis_error_deg, loop.max_roll_rad() * 180.0 / M_PI);
-    EXPECT_LT(position_error_m, 0.01) << name;
-    EXPECT_LT(axis_error_deg, 0.25) << name;
-    EXPECT_LT(loop.max_roll_rad(), 30.0 * M_PI / 180.0) << name;  // the free roll hangs, it does not tumble
+    // measured 0.0033 m both; x axis 0.016 / 0.072 deg; roll 8.2 / 6.2 deg
+    EXPECT_LT(position_error_m, 0.007) << name;
+    EXPECT_LT(axis_error_deg, name == "two_line" ? 0.035 : 0.15) << name;
+    EXPECT_LT(loop.max_roll_rad(), 16.0 * M_PI / 180.0) << name;  // the free roll hangs, it does not tumble
   }
-}
-
-TEST(ClosedLoop, AdmittanceYieldsByForceOverStiffness) {
-  // the three-star with its pole (seed §VI-E); the admittance (19) yields to a known push, which (10) also
-  // cancels as its F_e, so the IAP follows the revised reference
-  const Eigen::Vector3d start(0, 0, -2);
-  ClosedLoop loop("three_star_pole", start);
-  Admittance admittance(AdmittanceConfig(), kStepsPerControl * kPhysicsStep_s);
-  const PoseReference nominal = Pose(start, 0, 0, 0);
-  const Eigen::Vector3d push_W_N(3.0, -2.0, 0.0);
-  const Vector6d push_W = (Vector6d() << push_W_N, Eigen::Vector3d::Zero()).finished();
-  PoseReference revised;
-  loop.Fly([&](const PlatformState&) { return revised = admittance.Update(nominal, push_W); }, 20.0, push_W_N,
-           true);
-  const Eigen::Vector3d expected_m = start + push_W_N / 100.0;  // K_e = 100 N/m (Table IV)
-  const Eigen::Vector3d reached_m = loop.State().p_WP_m;
-  std::printf(
-      "admittance, 3.6 N push: reference moved [%.4f %.4f %.4f] m, the IAP [%.4f %.4f %.4f] m (F/K [%.3f "
-      "%.3f 0])\n",
-      revised.p_WP_m.x() - start.x(), revised.p_WP_m.y() - start.y(), revised.p_WP_m.z() - start.z(),
-      reached_m.x() - start.x(), reached_m.y() - start.y(), reached_m.z() - start.z(), push_W_N.x() / 100,
-      push_W_N.y() / 100);
-  EXPECT_LT((revised.p_WP_m - expected_m).norm(), 1e-6);
-  EXPECT_LT((reached_m - expected_m).norm(), 0.005);
 }
 
 }  // namespace

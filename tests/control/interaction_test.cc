@@ -124,10 +124,11 @@ TEST(Interaction, DirectWrenchControlPushesAWallWithTheCommandedWrench) {
       controller.wrench_pid().integral_term()[3], controller.wrench_pid().integral_term()[4],
       controller.wrench_pid().integral_term()[5]);
   ASSERT_GT(engaged_at_s, 0.0);
-  // the axes the contact carries: normal force, friction along y, and the yaw moment of the tip force
-  EXPECT_NEAR(mean_P[0], 1.5, 0.15);
-  EXPECT_NEAR(mean_P[1], 4.0, 0.4);
-  EXPECT_NEAR(mean_P[5], -4.0, 0.4);
+  // the axes the contact carries: normal force, friction along y, and the yaw moment of the tip force;
+  // measured 1.501 N, 3.946 N, -3.925 N·m (y and yaw still settle on k_w^I's slow integral)
+  EXPECT_NEAR(mean_P[0], 1.5, 0.005);
+  EXPECT_NEAR(mean_P[1], 4.0, 0.11);
+  EXPECT_NEAR(mean_P[5], -4.0, 0.15);
   EXPECT_EQ(controller.active_controller().rejected_updates(), 0u);
 }
 
@@ -157,7 +158,7 @@ TEST(Interaction, AdmittanceMovesTheReferenceByForceOverStiffness) {
       reached_m.y() - nominal.p_WP_m.y(), reached_m.z() - nominal.p_WP_m.z(), push_W_N.x() / 100,
       push_W_N.y() / 100);
   EXPECT_LT((revised.p_WP_m - expected_m).norm(), 1e-6);
-  EXPECT_LT((reached_m - expected_m).norm(), 0.005);
+  EXPECT_LT((reached_m - expected_m).norm(), 0.0015);  // measured 0.0007 m
 }
 
 }  // namespace

@@ -49,8 +49,10 @@ TEST(HoverFlight, ThreeStarHoversOnTheBusForTenSeconds) {
               static_cast<unsigned long long>(states), max_displacement_m, max_tilt_rad * 180.0 / M_PI);
   EXPECT_EQ(states, 10001u);
   EXPECT_NEAR(start.z(), -2.0, 1e-9);
-  EXPECT_LT(max_displacement_m, 0.03);  // "within a few centimetres"
-  EXPECT_LT(max_tilt_rad, 1.0 * M_PI / 180.0);
+  // "within a few centimetres" is the words; the trim is exact, so what moves it is rounding
+  // (measured 1.6e-11 m, no tilt): a micrometre or a microradian catches any imbalance of the forces
+  EXPECT_LT(max_displacement_m, 1e-6);
+  EXPECT_LT(max_tilt_rad, 1e-6);
   EXPECT_EQ(max_contact_N, 0.0);  // 2 m up: nothing touches
 
   std::ifstream in(result.run_dir + "/metrics.json");
