@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 namespace iapsim::bridge {
 namespace {
@@ -37,6 +38,16 @@ YamlMap::YamlMap(const YAML::Node& node, std::string file, std::string key_path)
     throw ConfigError(Where(node_) + (key_path_.empty() ? "document" : key_path_) +
                       ": expected a map of keys, got a " + KindOf(node_));
   }
+  // yaml-cpp keeps a repeated key and finds the first: the second would be ignored without a word
+  if (!node_ || !node_.IsMap()) return;
+  std::map<std::string, YAML::Mark> seen;
+  for (const auto& entry : node_) {
+    const auto [first, inserted] = seen.emplace(entry.first.Scalar(), entry.first.Mark());
+    if (inserted) continue;
+    const std::string also =
+        first->second.is_null() ? "" : " (first at line " + std::to_string(first->second.line + 1) + ")";
+    throw ConfigError(Where(entry.first) + PathOf(entry.first.Scalar()) + ": given twice" + also);
+  }
 }
 
 std::string YamlMap::KindOf(const YAML::Node& node) {
@@ -69,9 +80,12 @@ YAML::Node YamlMap::Child(const std::string& key) const {
 
 void YamlMap::Fail(const std::string& key, const std::string& what) const {
   const YAML::Node child = Child(key);
-  const YAML::Node& where = child ? child : node_;
-  std::string location = Where(where);
-  if (child && child.Mark().is_null()) location = file_ + ": (set on the command line) ";
+  FailAt(child ? child : node_, key, what);
+}
+
+void YamlMap::FailAt(const YAML::Node& node, const std::string& key, const std::string& what) const {
+  std::string location = Where(node);
+  if (!node.is(node_) && node.Mark().is_null()) location = file_ + ": (set on the command line) ";
   throw ConfigError(location + PathOf(key) + ": " + what);
 }
 
@@ -132,6 +146,11 @@ void YamlMap::Finish() {
 YAML::Node LoadYamlFile(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw ConfigError(path + ": cannot open the file");
+  std::error_code error;
+  if (const auto bytes = std::filesystem::file_size(path, error); !error && bytes > kMaxYamlFileBytes) {
+    throw ConfigError(path + ": " + std::to_string(bytes) + " bytes; a configuration file may have at most " +
+                      std::to_string(kMaxYamlFileBytes >> 20) + " MiB (is it the right file?)");
+  }
   try {
     return YAML::Load(in);
   } catch (const YAML::Exception& e) {
@@ -197,6 +216,28 @@ uint64_t StepsPerPeriod(double rate_hz, double step_s) {
   const double period_steps = 1.0 / (rate_hz * step_s);
   if (!(period_steps >= 1.0 - 1e-9) || std::fabs(period_steps - std::round(period_steps)) > 1e-6) return 0;
   return static_cast<uint64_t>(std::llround(period_steps));
+}
+
+std::vector<double> ReadNumberList(YamlMap& map, const std::string& key, const std::vector<size_t>& sizes) {
+  const YAML::Node node = map.Raw(key);
+  std::string expected;
+  for (const size_t n : sizes) expected += (expected.empty() ? "" : " or ") + std::to_string(n);
+  if (!node || !node.IsSequence()) map.Fail(key, "expected a list of " + expected + " numbers");
+  std::vector<double> values;
+  for (size_t i = 0; i < node.size(); ++i) {
+    const YAML::Node item = node[i];
+    double value = 0.0;
+    if (!item.IsScalar() || !YAML::convert<double>::decode(item, value) || !std::isfinite(value)) {
+      map.FailAt(
+          item, key + "[" + std::to_string(i) + "]",
+          "expected a finite number, got " + (item.IsScalar() ? "'" + item.Scalar() + "'" : "a list or map"));
+    }
+    values.push_back(value);
+  }
+  if (std::find(sizes.begin(), sizes.end(), values.size()) == sizes.end()) {
+    map.Fail(key, "expected " + expected + " numbers, got " + std::to_string(values.size()));
+  }
+  return values;
 }
 
 std::string ReadFilePath(YamlMap& map, const std::string& key, const std::string& relative_to) {

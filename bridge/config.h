@@ -5,6 +5,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <cstdint>
 #include <set>
 #include <stdexcept>
@@ -70,6 +71,8 @@ class YamlMap {
   YAML::Node Resolved() const { return resolved_; }
 
   [[noreturn]] void Fail(const std::string& key, const std::string& what) const;
+  /// Fails at `node` (an element of `key`'s value) instead of at the key.
+  [[noreturn]] void FailAt(const YAML::Node& node, const std::string& key, const std::string& what) const;
   const std::string& file() const { return file_; }
   std::string PathOf(const std::string& key) const { return key_path_.empty() ? key : key_path_ + "." + key; }
 
@@ -83,6 +86,11 @@ class YamlMap {
     T out{};
     if (!YAML::convert<T>::decode(node, out)) {
       Fail(key, "expected " + TypeName<T>() + ", got '" + node.Scalar() + "'");
+    }
+    // one rule for every number: .nan and .inf are never a setting (a NaN timeout or rate would turn a check
+    // off rather than fail it)
+    if constexpr (std::is_floating_point_v<T>) {
+      if (!std::isfinite(out)) Fail(key, "expected a finite number, got '" + node.Scalar() + "'");
     }
     return out;
   }
@@ -103,6 +111,10 @@ class YamlMap {
   YAML::Node resolved_;
 };
 
+/// The list of numbers under `key` (required), with as many entries as one of `sizes`: each must be a finite
+/// number, and an error points at the entry ("KEY[1]: expected a finite number, got '.nan'").
+std::vector<double> ReadNumberList(YamlMap& map, const std::string& key, const std::vector<size_t>& sizes);
+
 /// Reads the file name under `key` (required) and finds it: absolute, or relative to the folder of
 /// `relative_to` (the scenario file), or to the working folder. Records the absolute path as the resolved
 /// value (so a run restarts from its scenario.resolved.yaml) and returns it; fails naming the key.
@@ -112,9 +124,12 @@ std::string ReadFilePath(YamlMap& map, const std::string& key, const std::string
 /// one (a rate that does not divide the step's rate).
 uint64_t StepsPerPeriod(double rate_hz, double step_s);
 
-/// Loads a YAML file; a missing or malformed file is a ConfigError naming it (and the line of a syntax
-/// error).
+/// Loads a YAML file; a missing, malformed or oversized (over kMaxYamlFileBytes) file is a ConfigError naming
+/// it (and the line of a syntax error).
 YAML::Node LoadYamlFile(const std::string& path);
+/// yaml-cpp parses about 0.4 MB/s here: a configuration file is kilobytes, and a bigger one is the wrong file
+/// (a log, a bag) that would otherwise keep a run from starting for minutes.
+inline constexpr uint64_t kMaxYamlFileBytes = 2 << 20;
 
 /// Applies "a.b.c=value" (value parsed as YAML) onto `root`; missing map keys are created (and validated with
 /// the rest of the file), a list's entry is named by its index ("vehicles.1.position_m=[0, 1, 2]").

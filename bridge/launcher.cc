@@ -419,6 +419,8 @@ LaunchResult Launch(const LaunchOptions& options) {
     return result;
   }
 
+  if (options.check_only) return result;
+
   // the run directory, with the configuration exactly as the processes will use it
   result.run_dir = MakeRunDir(options, scenario);
   const std::string run_id =

@@ -19,6 +19,9 @@ struct LaunchOptions {
   std::string out_dir;                 // empty: runs/<name>-<UTC time>
   std::string bin_dir;                 // where process executables live
   bool progress = false;               // one-line progress on stderr (when it is a terminal)
+  // validate the scenario and every process's params (each process's --check), then return without a run
+  // directory or a process started
+  bool check_only = false;
 };
 
 struct LaunchResult {

@@ -15,17 +15,11 @@ void OptionalNumbers(bridge::YamlMap& map, const std::string& key, Eigen::Matrix
     map.SetResolved(key, YAML::Node(std::vector<double>(value->data(), value->data() + N)));
     return;
   }
-  const YAML::Node node = map.Raw(key);
-  std::vector<double> numbers;
-  if (!node.IsSequence() || node.size() != N || !YAML::convert<std::vector<double>>::decode(node, numbers)) {
-    map.Fail(key, "expected " + expected);
-  }
+  const std::vector<double> numbers = bridge::ReadNumberList(map, key, {static_cast<size_t>(N)});
   for (double v : numbers) {
-    if (!std::isfinite(v)) map.Fail(key, "must be finite");
-    if (non_negative && v < 0.0) map.Fail(key, "must be non-negative");
+    if (non_negative && v < 0.0) map.Fail(key, "expected " + expected);
   }
   *value = Eigen::Map<const Eigen::Matrix<double, N, 1>>(numbers.data());
-  map.SetResolved(key, node);
 }
 
 // Six non-negative numbers under `key` (the diagonal of a gain matrix), kept as they are when absent.

@@ -483,10 +483,9 @@ std::unique_ptr<Trajectory> ReadCircle(YamlMap& params) {
 
 std::unique_ptr<Trajectory> ReadFigureEight(YamlMap& params) {
   const Vector3d center_m = RequiredVector3(params, "center_m", "[x, y, z] in m (NED)");
-  const YAML::Node size = params.Raw("size_m");
-  double ax_m = 0.0, ay_m = 0.0;
-  if (!size || !size.IsSequence() || size.size() != 2 || !YAML::convert<double>::decode(size[0], ax_m) ||
-      !YAML::convert<double>::decode(size[1], ay_m) || !(ax_m > 0.0) || !(ay_m > 0.0)) {
+  const std::vector<double> size = bridge::ReadNumberList(params, "size_m", {2});
+  const double ax_m = size[0], ay_m = size[1];
+  if (!(ax_m > 0.0) || !(ay_m > 0.0)) {
     params.Fail("size_m", "expected [ax, ay]: the positive half-extents (m) along x and y");
   }
   double height_m = 0.0;

@@ -216,7 +216,7 @@ TEST(Vehicle, BadYamlGivesTheFileLineAndKey) {
            " resistance_ohm: .nan, no_load_current_A: 0.5, time_constant_up_s: 0.01, time_constant_down_s: "
            "0.02}}\n"
            "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n",
-       "sub_aircraft_defaults.rotors.electric.resistance_ohm: must be in (0, 100) ohm"},
+       "sub_aircraft_defaults.rotors.electric.resistance_ohm: expected a finite number, got '.nan'"},
       {"thrust curve",
        "name: x\n" + good_platform + "sub_aircraft_defaults:\n  base: " + F450() +
            "\n  rotors: {arm_m: 0.2, thrust_coefficient: 1e-5, torque_coefficient: 1e-7,"

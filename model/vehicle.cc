@@ -16,29 +16,10 @@ namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-std::vector<double> ReadNumbers(YamlMap& map, const std::string& key, const std::vector<size_t>& sizes) {
-  const YAML::Node node = map.Raw(key);
-  std::string expected;
-  for (const size_t n : sizes) expected += (expected.empty() ? "" : " or ") + std::to_string(n);
-  if (!node.IsSequence()) map.Fail(key, "expected a list of " + expected + " numbers");
-  std::vector<double> values;
-  for (const auto& item : node) {
-    double v;
-    if (!item.IsScalar() || !YAML::convert<double>::decode(item, v) || !std::isfinite(v)) {
-      map.Fail(key, "expected a list of " + expected + " numbers");
-    }
-    values.push_back(v);
-  }
-  bool size_ok = false;
-  for (const size_t n : sizes) size_ok = size_ok || values.size() == n;
-  if (!size_ok) map.Fail(key, "expected " + expected + " numbers, got " + std::to_string(values.size()));
-  return values;
-}
-
 // [xx, yy, zz] or [xx, yy, zz, xy, xz, yz]; must be a physical inertia (positive definite, triangle rule)
 void OptionalInertia(YamlMap& map, const std::string& key, Eigen::Matrix3d* inertia) {
   if (!map.Has(key)) return;
-  const auto v = ReadNumbers(map, key, {3, 6});
+  const auto v = bridge::ReadNumberList(map, key, {3, 6});
   Eigen::Matrix3d I = Eigen::Vector3d(v[0], v[1], v[2]).asDiagonal();
   if (v.size() == 6) {
     I(0, 1) = I(1, 0) = v[3];
@@ -70,7 +51,7 @@ Shape ReadShape(YamlMap& map, BodyMotion motion) {
   Shape shape;
   int kinds = 0;
   if (map.Has("box")) {
-    const auto v = ReadNumbers(map, "box", {3});
+    const auto v = bridge::ReadNumberList(map, "box", {3});
     shape.kind = Shape::Kind::kBox;
     shape.box_size_m = Eigen::Vector3d(v[0], v[1], v[2]);
     if (shape.box_size_m.minCoeff() <= 0.0) map.Fail("box", "sizes must be positive");
@@ -204,7 +185,7 @@ void ReadRotors(YamlMap& map, RotorSet* rotors) {
   if (!(rotors->motor_time_constant_s > 0.0 && rotors->motor_time_constant_s < 10.0))
     map.Fail("motor_time_constant_s", "must be in (0, 10) s");
   if (!map.Has("speed_rad_s")) map.Fail("speed_rad_s", "is required: [min, max] rotor speed in rad/s");
-  const auto speed = ReadNumbers(map, "speed_rad_s", {2});
+  const auto speed = bridge::ReadNumberList(map, "speed_rad_s", {2});
   if (!(speed[0] >= 0.0 && speed[1] > speed[0])) map.Fail("speed_rad_s", "expected 0 <= min < max");
   rotors->min_speed_rad_s = speed[0];
   rotors->max_speed_rad_s = speed[1];
@@ -314,7 +295,7 @@ void OptionalVector3(YamlMap& map, const std::string& key, Eigen::Vector3d* valu
                     YAML::Node(std::vector<double>{in_file_unit.x(), in_file_unit.y(), in_file_unit.z()}));
     return;
   }
-  const auto v = ReadNumbers(map, key, {3});
+  const auto v = bridge::ReadNumberList(map, key, {3});
   *value = Eigen::Vector3d(v[0], v[1], v[2]) * scale;
 }
 

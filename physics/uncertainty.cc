@@ -35,9 +35,9 @@ std::string Number(double value) {
 double ReadNumber(const YAML::Node& node, const YamlMap& map, const std::string& key,
                   const std::string& what) {
   double value = 0.0;
-  if (!node.IsScalar() || !YAML::convert<double>::decode(node, value) || !std::isfinite(value)) {
-    map.Fail(key, "expected " + what);
-  }
+  if (!node.IsScalar() || !YAML::convert<double>::decode(node, value)) map.Fail(key, "expected " + what);
+  if (!std::isfinite(value))
+    map.Fail(key, "expected a finite number (" + what + "), got '" + node.Scalar() + "'");
   return value;
 }
 

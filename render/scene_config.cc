@@ -99,12 +99,8 @@ int ReadShapeMesh(YamlMap& map, Scene* scene, int material, float repeats_per_m)
     add(MakeBox(size, material));
   }
   if (map.Has("plane")) {
-    const YAML::Node node = map.Raw("plane");
-    Eigen::Vector2d size;
-    if (!node.IsSequence() || node.size() != 2 || !YAML::convert<double>::decode(node[0], size.x()) ||
-        !YAML::convert<double>::decode(node[1], size.y())) {
-      map.Fail("plane", "expected [size_x_m, size_y_m]");
-    }
+    const std::vector<double> numbers = bridge::ReadNumberList(map, "plane", {2});  // [size_x_m, size_y_m]
+    const Eigen::Vector2d size(numbers[0], numbers[1]);
     positive("plane", size);
     add(MakePlane(size.x(), size.y(), material));
   }

@@ -100,7 +100,11 @@ int main(int argc, char** argv) {
   app.add_option("--columns", column_names, "value columns by name or index (default: every numeric one)");
   app.add_option("--rate", rate_hz, "sample rate in Hz (default: from the time column)");
   app.add_flag("--table", print_table, "also print σ(τ) of every column");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help exits 0; a usage error 2, as a bad configuration does
+  }
 
   try {
     const Table table = ReadCsv(path);

@@ -158,6 +158,22 @@ code=$?
 set -e
 [ $code -eq 2 ] || fail "bad configuration exited $code"
 grep -q "$work/bad.yaml:[0-9]*:[0-9]*: duration_s: expected a number" "$work/bad.err" || fail "message: $(cat "$work/bad.err")"
+# --check validates the whole graph and runs nothing; a usage error exits 2 as a bad configuration does
+"$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --check --out "$work/checked" > "$work/check_only.out" 2>&1 \
+  || fail "run --check of a valid scenario: $(cat "$work/check_only.out")"
+grep -q "valid" "$work/check_only.out" || fail "run --check said: $(cat "$work/check_only.out")"
+[ ! -e "$work/checked" ] || fail "run --check made a run directory"
+set +e
+"$iapsim" run "$work/bad.yaml" --check > /dev/null 2>&1
+code_check=$?
+"$iapsim" run --no-such-option "$src/configs/scenarios/bus_demo.yaml" > /dev/null 2>&1
+code_usage=$?
+"$iapsim" > /dev/null 2>&1
+code_none=$?
+set -e
+[ $code_check -eq 2 ] || fail "run --check of a bad scenario exited $code_check"
+[ $code_usage -eq 2 ] || fail "an unknown option exited $code_usage"
+[ $code_none -eq 2 ] || fail "iapsim without a command exited $code_none"
 
 # a realtime run: inspect it live, then stop it with SIGTERM
 "$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --mode realtime --duration 60 --out "$work/live" \

@@ -63,10 +63,16 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
   options.out_dir = args.out_dir;
   options.bin_dir = ExecutableDir();
   options.progress = true;
+  options.check_only = args.check;
   const LaunchResult result = bridge::Launch(options);
   if (result.exit_code == 2) {
     std::cerr << "iapsim: invalid configuration: " << result.message << std::endl;
     return 2;
+  }
+  if (args.check && result.exit_code == 0) {
+    std::printf("%s: valid (the scenario and the params of its %zu processes)\n", args.scenario.c_str(),
+                LoadScenario(args.scenario, options.overrides).processes.size());
+    return 0;
   }
   if (result.exit_code != 0) {
     std::cerr << "iapsim: run failed: " << result.message << std::endl;

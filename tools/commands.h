@@ -16,6 +16,7 @@ struct RunArgs {
   std::optional<uint64_t> seed;
   std::vector<std::string> overrides;  // KEY=VALUE
   std::string video;                   // a camera eye whose recorded images become an MP4 after the run
+  bool check = false;                  // validate everything, run nothing
 };
 int Run(const RunArgs& args);
 

@@ -50,6 +50,10 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--set", run.overrides, "override a scenario key: KEY=VALUE (repeatable)");
   run_cmd->add_option("--video", run.video,
                       "after the run, an MP4 of this camera's recorded images (e.g. iap/platform/chase)");
+  run_cmd->add_flag(
+      "--check", run.check,
+      "validate the scenario and every process's params (exit 0, or 2 with the file, line and key), "
+      "run nothing");
 
   ReplayArgs replay;
   auto* replay_cmd = app.add_subcommand(
@@ -163,7 +167,11 @@ int main(int argc, char** argv) {
   app.add_subcommand(
       "rl", "the air-docking learning task (seed section VI-H): eval, collect; see iapsim rl --help");
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help exits 0; a usage error 2, as a bad configuration does
+  }
   try {
     if (*run_cmd) return Run(run);
     if (*replay_cmd) return Replay(replay);

@@ -120,7 +120,11 @@ int main(int argc, char** argv) {
                    "the TorchScript policy PPO starts from (default DIR/td3bc/policy.pt)")
       ->check(CLI::ExistingFile);
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help exits 0; a usage error 2, as a bad configuration does
+  }
   if (*eval_cmd) return RlEval(eval);
   if (*train_cmd) return RlTrain(train);
   return RlCollect(collect);
