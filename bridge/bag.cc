@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <queue>
 #include <set>
@@ -145,6 +146,7 @@ struct BagReader::Impl {
   std::vector<BagTopicInfo> topics;
   int64_t start_time_ns = 0;
   int64_t end_time_ns = 0;
+  std::string note;  // how a bag was read that was not read as written
 
   [[noreturn]] void Fail(const std::string& what) const { throw ErrorFor(path, what); }
 
@@ -199,12 +201,99 @@ struct BagReader::Impl {
       Fail("malformed bag header record at byte " + std::to_string(version_bytes));
     }
     if (index_position == 0) {
-      Fail(
-          "unindexed: its writer did not close it (a killed run); `rosbag reindex` recovers every chunk it "
-          "wrote");
+      Scan(version_bytes + RecordBytes(version_bytes, &buffer));
+    } else {
+      ReadIndex(index_position, connection_count, chunk_count);
     }
-    ReadIndex(index_position, connection_count, chunk_count);
+    SortChunks();
     Summarize();
+  }
+
+  // The lengths of the record at `position`, when they and what they count lie within the file.
+  bool RecordFits(uint64_t position, uint64_t* bytes, std::vector<uint8_t>* scratch) const {
+    if (position > file_size || file_size - position < 8) return false;
+    uint32_t header_size, data_size;
+    ReadAt(position, 4, scratch);
+    std::memcpy(&header_size, scratch->data(), 4);
+    if (header_size > file_size - position - 8) return false;
+    ReadAt(position + 4 + header_size, 4, scratch);
+    std::memcpy(&data_size, scratch->data(), 4);
+    *bytes = 8 + uint64_t{header_size} + data_size;
+    return *bytes <= file_size - position;
+  }
+
+  // An unindexed bag (its writer was killed before it closed the bag): walks the chunks from `position`, each
+  // with the index data records the writer puts after it, and takes the connections from the chunks' own
+  // records. A chunk is kept only when it is whole and its index counts every message it holds; the first
+  // that is not (the one the writer was writing when it died) ends the walk, and what follows is skipped.
+  void Scan(uint64_t position) {
+    std::vector<uint8_t> scratch, stored, records;
+    Record record;
+    while (true) {
+      uint64_t bytes = 0;
+      if (!RecordFits(position, &bytes, &scratch)) break;
+      ReadAt(position, bytes, &scratch);
+      if (!ParseRecord(scratch.data(), scratch.size(), 0, &record) || record.op != kOpChunk) break;
+      Chunk chunk;
+      chunk.position = position;
+      chunk.start_ns = std::numeric_limits<int64_t>::max();
+      std::map<uint32_t, uint32_t> indexed;  // per connection: messages its index data records list
+      uint64_t next = position + bytes;
+      while (RecordFits(next, &bytes, &scratch)) {
+        ReadAt(next, bytes, &scratch);
+        uint32_t version, id, count;
+        if (!ParseRecord(scratch.data(), scratch.size(), 0, &record) || record.op != kOpIndexData ||
+            !record.header.Get("ver", &version) || version != kIndexVersion ||
+            !record.header.Get("conn", &id) || !record.header.Get("count", &count) ||
+            record.data_size != size_t{count} * 12) {
+          break;
+        }
+        for (uint32_t k = 0; k < count; ++k) {
+          uint32_t entry[3];  // time (sec, nsec), offset
+          std::memcpy(entry, record.data + size_t{k} * 12, 12);
+          chunk.start_ns = std::min(chunk.start_ns, int64_t{entry[0]} * 1000000000 + entry[1]);
+        }
+        indexed[id] += count;
+        next += bytes;
+      }
+      // what the chunk holds: its connection records and how many messages of each
+      chunks.push_back(chunk);
+      std::map<uint32_t, uint32_t> held;
+      try {
+        ReadChunk(static_cast<uint32_t>(chunks.size() - 1), &stored, &records);
+        for (size_t pos = 0; pos < records.size(); pos = record.end) {
+          const std::string where = " in the chunk at byte " + std::to_string(position);
+          if (!ParseRecord(records.data(), records.size(), pos, &record)) Fail("malformed record" + where);
+          uint32_t id;
+          if (record.op == kOpConnection) ReadConnection(record, where);
+          if (record.op == kOpMessageData && record.header.Get("conn", &id)) ++held[id];
+        }
+      } catch (const BagError&) {
+        held.clear();  // damaged: not kept
+      }
+      if (held.empty() || held != indexed) {
+        chunks.pop_back();
+        break;
+      }
+      chunks.back().counts.assign(indexed.begin(), indexed.end());
+      chunks.back().index_end = next;
+      position = next;
+    }
+    for (const Chunk& chunk : chunks) {
+      for (const auto& [id, count] : chunk.counts) {
+        if (connections.count(id) == 0) {
+          Fail("unindexed, and chunk at byte " + std::to_string(chunk.position) +
+               " holds messages of connection " + std::to_string(id) + " that no chunk describes");
+        }
+      }
+    }
+    note = "unindexed (its writer did not close it, as a killed run's): read by walking its " +
+           std::to_string(chunks.size()) + " whole chunks";
+    if (position < file_size) {
+      note += "; the last " + std::to_string(file_size - position) +
+              " bytes (the chunk being written when it stopped) are skipped";
+    }
+    note += " (`rosbag reindex` writes its index)";
   }
 
   // the connection records and chunk info records from index_pos to the end of the file
@@ -241,6 +330,9 @@ struct BagReader::Impl {
     for (Chunk& chunk : chunks) {
       chunk.index_end = *std::upper_bound(positions.begin(), positions.end(), chunk.position);
     }
+  }
+
+  void SortChunks() {
     std::sort(chunks.begin(), chunks.end(), [](const Chunk& a, const Chunk& b) {
       return std::tie(a.start_ns, a.position) < std::tie(b.start_ns, b.position);
     });
@@ -275,7 +367,11 @@ struct BagReader::Impl {
       Fail("malformed chunk info record" + where);
     }
     chunk.counts.resize(count);
-    std::memcpy(chunk.counts.data(), record.data, record.data_size);
+    for (uint32_t k = 0; k < count; ++k) {
+      uint32_t id_and_count[2];
+      std::memcpy(id_and_count, record.data + size_t{k} * 8, 8);
+      chunk.counts[k] = {id_and_count[0], id_and_count[1]};
+    }
     chunks.push_back(std::move(chunk));
   }
 
@@ -408,6 +504,8 @@ std::vector<BagTopicInfo> BagReader::Topics() const { return impl_->topics; }
 int64_t BagReader::start_time_ns() const { return impl_->start_time_ns; }
 
 int64_t BagReader::end_time_ns() const { return impl_->end_time_ns; }
+
+const std::string& BagReader::note() const { return impl_->note; }
 
 void BagReader::ForEach(const std::vector<std::string>& topics,
                         const std::function<bool(const BagMessage&)>& visit) const {

@@ -90,7 +90,8 @@ struct BagMessage {
 
 class BagReader {
  public:
-  /// Opens `path` for reading. Throws BagError naming the file when it is missing or not a bag.
+  /// Opens `path` for reading. Throws BagError naming the file (and the byte) when it is missing, not a bag
+  /// or damaged.
   explicit BagReader(const std::string& path);
   ~BagReader();
   BagReader(const BagReader&) = delete;
@@ -101,6 +102,9 @@ class BagReader {
   std::vector<BagTopicInfo> Topics() const;
   int64_t start_time_ns() const;
   int64_t end_time_ns() const;
+  /// Empty for a bag read as written; otherwise how it was read (an unindexed bag, the one a killed writer
+  /// leaves, is read by walking its chunks: every whole chunk's messages, the last one cut short skipped).
+  const std::string& note() const;
 
   /// Visits the messages of `topics` (all when empty) in record-time order; stop early by returning false.
   void ForEach(const std::vector<std::string>& topics,

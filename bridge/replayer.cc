@@ -1,6 +1,7 @@
 #include "bridge/replayer.h"
 
 #include <geometry_msgs/PoseStamped.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
@@ -98,6 +99,7 @@ class Replayer : public Process {
     if (!pose_field.empty() && !as_pose) params.Fail("pose_field", "only applies with as_pose: true");
     try {
       BagReader bag(bag_path);
+      if (!bag.note().empty()) spdlog::warn("{}: {}", bag_path, bag.note());
       for (const auto& topic : topics) {
         bool found = false;
         for (const auto& info : bag.Topics()) found = found || info.topic == topic;

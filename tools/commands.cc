@@ -205,7 +205,9 @@ int Info(const std::string& bag_path) {
   std::printf("bag:       %s\n", bag_path.c_str());
   std::printf("duration:  %.3f s (%.9f to %.9f)\n", Seconds(bag.end_time_ns() - bag.start_time_ns()),
               Seconds(bag.start_time_ns()), Seconds(bag.end_time_ns()));
-  std::printf("messages:  %llu on %zu topics\n\n", static_cast<unsigned long long>(total), topics.size());
+  std::printf("messages:  %llu on %zu topics\n", static_cast<unsigned long long>(total), topics.size());
+  if (!bag.note().empty()) std::printf("note:      %s\n", bag.note().c_str());
+  std::printf("\n");
   size_t topic_width = 5, type_width = 4;
   for (const auto& t : topics) {
     topic_width = std::max(topic_width, t.topic.size());
@@ -225,6 +227,8 @@ int Info(const std::string& bag_path) {
 
 int Export(const ExportArgs& args) {
   BagReader bag(args.bag);
+  if (!bag.note().empty())
+    std::fprintf(stderr, "iapsim export: %s: %s\n", args.bag.c_str(), bag.note().c_str());
   const BagTopicInfo* topic = nullptr;
   const auto topics = bag.Topics();
   for (const auto& t : topics) {
