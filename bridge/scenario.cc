@@ -1,7 +1,14 @@
 #include "bridge/scenario.h"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -205,7 +212,11 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
 
   YamlMap bus = top.Map("bus");
   bus.OptionalChoice("transport", &s.bus.transport, {"shm", "ipc", "tcp"});
-  bus.OptionalInRange("tcp_base_port", &s.bus.tcp_base_port, 1024, 65000);
+  bus.OptionalInRange("tcp_base_port", &s.bus.tcp_base_port, 0, 65000);
+  if (s.bus.tcp_base_port != 0 && s.bus.tcp_base_port < 1024) {
+    bus.Fail("tcp_base_port",
+             "must be 0 (free ports) or in [1024, 65000], got " + std::to_string(s.bus.tcp_base_port));
+  }
   bus.OptionalInRange("send_hwm", &s.bus.send_hwm, 1, 10000000);
   bus.OptionalInRange("receive_hwm", &s.bus.receive_hwm, 1, 10000000);
   bus.OptionalInRange("spin_us", &s.bus.spin_us, 0, 100000);
@@ -302,18 +313,53 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
   return s;
 }
 
+namespace {
+
+// `count` different tcp ports of 127.0.0.1 that are free now: each socket is bound to port 0 (the kernel
+// picks an unused one) and all stay bound until every port is picked, so they differ. The processes bind them
+// moments later; a program that takes one in between makes that process fail with a bind error naming the
+// endpoint.
+std::vector<int> FreeTcpPorts(size_t count) {
+  std::vector<int> sockets, ports;
+  for (size_t i = 0; i < count; ++i) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t length = sizeof(address);
+    if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) != 0 ||
+        ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) != 0) {
+      const std::string why = std::strerror(errno);
+      if (fd >= 0) ::close(fd);
+      for (const int s : sockets) ::close(s);
+      throw std::runtime_error("bus: no free tcp port on 127.0.0.1 (" + why + "); set bus.tcp_base_port");
+    }
+    sockets.push_back(fd);
+    ports.push_back(ntohs(address.sin_port));
+  }
+  for (const int fd : sockets) ::close(fd);
+  return ports;
+}
+
+}  // namespace
+
 void AssignEndpoints(Scenario* scenario, const std::string& run_id) {
   YAML::Node bus = scenario->resolved["bus"];
   YAML::Node endpoints(YAML::NodeType::Map);
-  int index = 0;
+  const std::string& transport = scenario->bus.transport;
+  std::vector<int> ports;
+  for (size_t i = 0; transport == "tcp" && i < scenario->processes.size(); ++i) {
+    ports.push_back(scenario->bus.tcp_base_port + static_cast<int>(i));
+  }
+  if (transport == "tcp" && scenario->bus.tcp_base_port == 0)
+    ports = FreeTcpPorts(scenario->processes.size());
+  size_t index = 0;
   for (const auto& p : scenario->processes) {
     // shm and ipc name abstract unix sockets: no files left behind, no path-length limit from a deep run
     // directory
-    const std::string& transport = scenario->bus.transport;
-    const std::string endpoint =
-        transport == "tcp"   ? "tcp://127.0.0.1:" + std::to_string(scenario->bus.tcp_base_port + index)
-        : transport == "shm" ? "shm://iapsim-" + run_id + "-" + p.name
-                             : "ipc://@iapsim-" + run_id + "-" + p.name;
+    const std::string endpoint = transport == "tcp"   ? "tcp://127.0.0.1:" + std::to_string(ports[index])
+                                 : transport == "shm" ? "shm://iapsim-" + run_id + "-" + p.name
+                                                      : "ipc://@iapsim-" + run_id + "-" + p.name;
     scenario->bus.endpoints[p.name] = endpoint;
     endpoints[p.name] = endpoint;
     ++index;

@@ -32,7 +32,9 @@ struct ClockConfig {
 
 struct BusConfig {
   std::string transport = "shm";  // shm (shared memory), ipc (ZeroMQ, unix sockets), tcp (ZeroMQ, loopback)
-  int tcp_base_port = 17500;      // tcp: process i binds tcp_base_port + i
+  // tcp: process i binds tcp_base_port + i; 0 (the default): ports the kernel says are free, so that runs at
+  // the same time never collide
+  int tcp_base_port = 0;
   int send_hwm = 10000;           // ipc, tcp: messages queued per connection
   int receive_hwm = 10000;
   int spin_us = 200;  // shm, lockstep/fast: how long a waiting process looks for a message before it sleeps

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <iapsim_msgs/UwbRanges.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
 #include <chrono>
 #include <csignal>
@@ -351,8 +352,30 @@ TEST_F(LauncherTest, AnyStartOrderOverTcp) {
            "processes.physics.params.setup_delay_s=0.4", "processes.control.params.setup_delay_s=0.2"});
   ASSERT_EQ(result.exit_code, 0) << result.message;
   EXPECT_EQ(Metrics(result)["processes"]["control"]["process"]["steps"], 1001);
-  EXPECT_NE(FileBytes(result.run_dir + "/scenario.resolved.yaml").find("tcp://127.0.0.1:"),
+  EXPECT_NE(FileBytes(result.run_dir + "/scenario.resolved.yaml")
+                .find("tcp://127.0.0.1:" + std::to_string(20000 + getpid() % 20000)),
             std::string::npos);
+}
+
+// By default each tcp run binds ports the kernel says are free: two at once both complete (with a fixed
+// base port the second failed with "Address already in use").
+TEST_F(LauncherTest, TwoTcpRunsAtOnceBothComplete) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
+  LaunchResult first, second;
+  std::thread other([&] { second = Run(scenario, "second", {"bus.transport=tcp"}); });
+  first = Run(scenario, "first", {"bus.transport=tcp"});
+  other.join();
+  for (const LaunchResult* result : {&first, &second}) {
+    ASSERT_EQ(result->exit_code, 0) << result->message;
+    EXPECT_EQ(Metrics(*result)["processes"]["control"]["process"]["steps"], 2001);
+  }
+  const auto endpoints = [](const LaunchResult& result) {
+    return YAML::LoadFile(result.run_dir + "/scenario.resolved.yaml")["bus"]["endpoints"];
+  };
+  for (const auto& entry : endpoints(first)) {
+    EXPECT_NE(entry.second.Scalar(), endpoints(second)[entry.first.Scalar()].Scalar())
+        << entry.first.Scalar();
+  }
 }
 
 TEST_F(LauncherTest, AProcessAfterAPeerSeesThePeersOutputOfTheSameStep) {

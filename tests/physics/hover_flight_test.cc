@@ -89,7 +89,9 @@ TEST(HoverFlight, PublishesEachSubAircraftsBatteryWhenTheActuationIsModelled) {
     EXPECT_EQ(battery.cell_voltage.size(), 4u);
     EXPECT_GT(battery.voltage, 14.0f);  // a 4S pack at 90 % under the hover current
     EXPECT_LT(battery.voltage, 16.8f);
-    if (messages > 1) EXPECT_LT(battery.current, -10.0f);  // discharging, ROS's sign
+    if (messages > 1) {
+      EXPECT_LT(battery.current, -10.0f);  // discharging, ROS's sign
+    }
     return true;
   });
   EXPECT_EQ(messages, 21);  // 10 Hz over steps 0 … 2 s
