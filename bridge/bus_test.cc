@@ -158,9 +158,10 @@ TEST_P(BusOn, APartiallyReadingSubscriberGetsTheRestInOrder) {
     std_msgs::String text;
     text.data = payload(i);
     publisher.Publish("/s", text);
-    if (i % 10 == 9) EXPECT_LE(subscriber.Spin(milliseconds(0), kBatch), kBatch);
+    if (i % 10 == 9) {
+      EXPECT_LE(subscriber.Spin(milliseconds(0), kBatch), kBatch);
+    }
   }
-  EXPECT_LT(received.size(), static_cast<size_t>(kMessages) * kBatch / 10 + 1);  // most still queued
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
   while (received.size() < kMessages && std::chrono::steady_clock::now() < deadline) {
     subscriber.Spin(milliseconds(10), kBatch);

@@ -14,6 +14,7 @@
 #include <iostream>
 #include <thread>
 
+#include "bridge/cli_usage.h"
 #include "bridge/control_channel.h"
 #include "bridge/eigen_msgs.h"
 
@@ -434,13 +435,7 @@ int ProcessMain(int argc, char** argv, const std::string& description, const Pro
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    // CLI11 reports --help as a parse "error" with exit code 0
-    if (e.get_exit_code() == 0) {
-      std::cout << app.help();
-      return 0;
-    }
-    std::cerr << e.what() << "\n" << app.help();
-    return 2;
+    return AnswerParseError(app, e);
   }
 
   spdlog::set_pattern("[%H:%M:%S.%e] [" + args.node + "] [%l] %v");

@@ -70,13 +70,6 @@ void HandshakeWith(Bus& bus, const std::string& peer) {
   }
 }
 
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const size_t i = std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
-  return v[i];
-}
-
 // The child side: answers every /ping with a /pong ack and, for latency runs, records one-way latencies.
 // Reports "ready" and then the latencies (JSON) through `pipe_fd`.
 [[noreturn]] void Child(const Endpoints& e, const std::string& kind, int pipe_fd) {
@@ -287,6 +280,13 @@ int BenchBus(nlohmann::json* report) {
   }
   std::printf("\ntargets: state p99 on the same host (shm) < 100 us; >= 20000 lockstep round trips/s\n");
   return 0;
+}
+
+double Percentile(std::vector<double> values, double fraction) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const auto rank = static_cast<size_t>(fraction * static_cast<double>(values.size() - 1) + 0.5);
+  return values[std::min(values.size() - 1, rank)];
 }
 
 }  // namespace iapsim::tools

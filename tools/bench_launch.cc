@@ -95,12 +95,6 @@ StopSample StopOnce(const std::string& scenario, const std::string& node, const 
   return sample;
 }
 
-double Percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  return values[static_cast<size_t>(p * static_cast<double>(values.size() - 1) + 0.5)];
-}
-
 }  // namespace
 
 int BenchLaunch(const std::string& scenario_path, int repeats, nlohmann::json* report) {

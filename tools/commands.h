@@ -84,6 +84,10 @@ int Echo(const LiveArgs& args);
 /// Writes the URDF of a vehicle YAML to `output` (stdout when empty). Bad YAML: exit 2.
 int Urdf(const std::string& vehicle, const std::string& output);
 
+/// The benchmarks' percentile: the nearest-rank value at `fraction` (0.5 the median, 1 the largest); 0 when
+/// there is none.
+double Percentile(std::vector<double> values, double fraction);
+
 /// Bus latency (ipc/tcp, state-sized and image-sized messages) and lockstep round trips between two
 /// processes. Prints a table and adds the figures to `report`.
 int BenchBus(nlohmann::json* report);

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "bridge/cli_usage.h"
 #include "bridge/launcher.h"
 #include "tools/commands.h"
 
@@ -170,7 +171,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;  // --help exits 0; a usage error 2, as a bad configuration does
+    return iapsim::bridge::AnswerParseError(app, e);
   }
   try {
     if (*run_cmd) return Run(run);

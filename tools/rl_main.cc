@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "bridge/cli_usage.h"
 #include "tools/rl_commands.h"
 
 namespace {
@@ -123,7 +124,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;  // --help exits 0; a usage error 2, as a bad configuration does
+    return iapsim::bridge::AnswerParseError(app, e);
   }
   if (*eval_cmd) return RlEval(eval);
   if (*train_cmd) return RlTrain(train);

@@ -186,28 +186,24 @@ TEST_F(Validation, NanInAnyNumberOfTheVehicleIsRefusedWithItsLineAndKey) {
 }
 
 TEST_F(Validation, AKeyOrAProcessGivenTwiceIsRefusedWithBothLines) {
-  const fs::path twice = Write("twice.yaml",
-                               "name: twice\n"
-                               "duration_s: 1\n"
-                               "duration_s: 2\n"
-                               "processes:\n"
-                               "  physics: {exec: iapsim_physics, role: clock}\n");
-  EXPECT_NE(ErrorOf([&] {
-              LoadScenario(twice.string());
-            }).find(twice.string() + ":3:1: duration_s: given twice (first at line 2)"),
-            std::string::npos)
-      << ErrorOf([&] { LoadScenario(twice.string()); });
-  const fs::path processes = Write("processes.yaml",
-                                   "name: twice\n"
-                                   "processes:\n"
-                                   "  physics: {exec: iapsim_physics, role: clock}\n"
-                                   "  control: {exec: iapsim_control}\n"
-                                   "  physics: {exec: iapsim_physics}\n");
-  EXPECT_NE(ErrorOf([&] {
-              LoadScenario(processes.string());
-            }).find(processes.string() + ":5:3: processes.physics: given twice (first at line 3)"),
-            std::string::npos)
-      << ErrorOf([&] { LoadScenario(processes.string()); });
+  const auto expect_refused = [](const fs::path& file, const std::string& expected) {
+    const std::string error = ErrorOf([&] { LoadScenario(file.string()); });
+    EXPECT_NE(error.find(file.string() + expected), std::string::npos) << error;
+  };
+  expect_refused(Write("twice.yaml",
+                       "name: twice\n"
+                       "duration_s: 1\n"
+                       "duration_s: 2\n"
+                       "processes:\n"
+                       "  physics: {exec: iapsim_physics, role: clock}\n"),
+                 ":3:1: duration_s: given twice (first at line 2)");
+  expect_refused(Write("processes.yaml",
+                       "name: twice\n"
+                       "processes:\n"
+                       "  physics: {exec: iapsim_physics, role: clock}\n"
+                       "  control: {exec: iapsim_control}\n"
+                       "  physics: {exec: iapsim_physics}\n"),
+                 ":5:3: processes.physics: given twice (first at line 3)");
 }
 
 TEST_F(Validation, AnOversizedFileIsRefusedBeforeItIsParsed) {
