@@ -115,6 +115,7 @@ bool ParseRecord(const uint8_t* buffer, size_t size, size_t pos, Record* record)
 struct Connection {
   std::string topic;
   TypeInfo type;
+  std::string publisher;  // the connection's callerid; empty when it has none
 };
 
 struct Chunk {
@@ -293,7 +294,6 @@ struct BagReader::Impl {
       note += "; the last " + std::to_string(file_size - position) +
               " bytes (the chunk being written when it stopped) are skipped";
     }
-    note += " (`rosbag reindex` writes its index)";
   }
 
   // the connection records and chunk info records from index_pos to the end of the file
@@ -354,6 +354,8 @@ struct BagReader::Impl {
       if (field == nullptr) Fail("connection " + std::to_string(id) + where + " has no " + name);
       *value = std::string(*field);
     }
+    if (const std::string_view* callerid = fields.Find("callerid"))
+      connection.publisher = std::string(*callerid);
     connections[id] = std::move(connection);
   }
 
@@ -549,8 +551,22 @@ void BagReader::ForEach(const std::vector<std::string>& topics,
     }
     bytes.assign(record.data, record.data + record.data_size);
     const Connection& connection = impl.connections.at(id);
-    if (!visit(BagMessage{connection.topic, connection.type, entry.time_ns, bytes})) return;
+    if (!visit(BagMessage{connection.topic, connection.type, entry.time_ns, bytes, connection.publisher}))
+      return;
   }
+}
+
+uint64_t ReindexBag(const std::string& in, const std::string& out, const BagWriterOptions& options) {
+  const BagReader reader(in);
+  BagWriter writer(out, options);
+  uint64_t messages = 0;
+  reader.ForEach({}, [&](const BagMessage& m) {
+    writer.Write(m.topic, m.type, m.record_time_ns, m.bytes.data(), m.bytes.size(), m.publisher);
+    ++messages;
+    return true;
+  });
+  writer.Close();
+  return messages;
 }
 
 }  // namespace iapsim::bridge

@@ -86,6 +86,7 @@ struct BagMessage {
   const TypeInfo& type;
   int64_t record_time_ns;
   const std::vector<uint8_t>& bytes;
+  const std::string& publisher;  // the connection's callerid (empty when the bag has none)
 };
 
 class BagReader {
@@ -114,5 +115,10 @@ class BagReader {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// Writes to `out` an indexed copy of the bag at `in` as BagReader reads it (an unindexed bag, a killed
+/// writer's, by walking its whole chunks): every connection (topic, type, publisher) and every message at its
+/// record time. Returns the number of messages. Throws BagError naming the file.
+uint64_t ReindexBag(const std::string& in, const std::string& out, const BagWriterOptions& options = {});
 
 }  // namespace iapsim::bridge

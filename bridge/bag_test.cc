@@ -895,6 +895,19 @@ TEST(BagWriterRecovery, ReindexRecoversEveryChunkAKilledWriterWrote) {
       EXPECT_NE(walked.note().find("its 5 whole chunks"), std::string::npos) << walked.note();
       ExpectSameLines(MessageLines(walked), MessageLines(first));
     }
+    // iapsim's reindex writes an indexed copy with those messages, each connection's publisher kept
+    {
+      const std::string copy = TempPath(std::string(variant.name) + "_reindexed.bag");
+      EXPECT_EQ(ReindexBag(path, copy, variant.options), in_chunks);
+      const BagReader reindexed(copy);
+      EXPECT_EQ(reindexed.note(), "");
+      ExpectSameLines(MessageLines(reindexed), MessageLines(first));
+      std::set<std::string> publishers, expected_publishers;
+      reindexed.ForEach(
+          {}, [&](const BagMessage& m) { return publishers.insert(m.topic + " " + m.publisher), true; });
+      for (const Record& r : first) expected_publishers.insert(r.topic + " " + r.publisher);
+      EXPECT_EQ(publishers, expected_publishers);
+    }
     // cut inside the last chunk's index: that chunk is skipped, the four before it read
     const std::string cut = TempPath(std::string(variant.name) + "_cut_index.bag");
     std::vector<char> bytes = ReadFile(path);

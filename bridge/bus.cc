@@ -208,6 +208,7 @@ struct Bus::Impl {
       Sequence sequence;
       sequence.next = meta.sequence;
       sequence.counters = &stats.topics[topic];
+      sequence.counters->subscribed = true;
       sequence.stream = stream;
       found = received.emplace(received_key, std::move(sequence)).first;
     }
@@ -398,6 +399,7 @@ void Bus::SetMutedPeers(const std::vector<std::string>& peers) {
 
 void Bus::AddSubscription(const std::string& topic, bool exact, const TypeInfo* type, RawCallback callback) {
   impl_->subscriptions.push_back(Subscription{topic, exact, type, std::move(callback)});
+  if (exact) stats_.topics[topic].subscribed = true;
   impl_->Subscribe(exact ? std::string(topic.c_str(), topic.size() + 1) : topic);
 }
 

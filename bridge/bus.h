@@ -67,6 +67,9 @@ struct TopicCounters {
   uint64_t dropped = 0;  // not sent: a subscriber's queue stayed full (see DropPolicy)
   uint64_t received = 0;
   uint64_t lost = 0;  // gaps in the publisher's sequence seen at this subscriber
+  // this node subscribed to the topic by name or received some of it (what it may have missed: the
+  // launcher compares `received` with what its peers published)
+  bool subscribed = false;
 };
 
 struct BusStats {

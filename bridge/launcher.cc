@@ -18,6 +18,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "bridge/bag.h"
 #include "bridge/control_channel.h"
 
 namespace iapsim::bridge {
@@ -26,6 +27,10 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
+
+// how long the recorder may take, once every other process has exited, to write what it received and close
+// its bag before it is signalled: a lagging recorder holds at most recording.max_lag_steps of messages
+constexpr auto kRecorderCloseGrace = std::chrono::seconds(10);
 
 // the launcher's own stop request (Ctrl-C, SIGTERM); signals are process-wide by nature
 std::atomic<int> launcher_signal{0};
@@ -105,7 +110,10 @@ struct Child {
   bool said_bye = false;
   double hang_timeout_s = 2.0;
   double startup_timeout_s = 30.0;
+  bool recorder = false;  // stops last (see Supervisor::Escalate)
   Clock::time_point last_heartbeat;
+  Clock::time_point signal_at = Clock::time_point::max();  // stopping: when it gets its next signal
+  bool terminated = false;                                 // SIGTERM sent: the next one is SIGKILL
   int64_t sim_ns = 0;
   nlohmann::json report;
   // its whole life's CPU time, once reaped (a process that crashed has no report of its own)
@@ -299,24 +307,32 @@ class Supervisor {
   void Stop(milliseconds grace) {
     if (stopping_) return;
     stopping_ = true;
-    stop_deadline_ = Clock::now() + grace;
     for (auto& child : children_) {
-      if (!child.exited) server_.Send(child.name, "stop");
+      if (child.exited) continue;
+      server_.Send(child.name, "stop");
+      if (!child.recorder) child.signal_at = Clock::now() + grace;
     }
   }
 
-  // stop request -> SIGTERM -> SIGKILL
+  // Stop request -> SIGTERM -> SIGKILL, 400 ms apart. The recorder is told to stop with the others but is
+  // signalled only kRecorderCloseGrace after they have all exited: it writes what they sent, then closes its
+  // bag (a killed recorder leaves it unindexed).
   void Escalate() {
     const auto now = Clock::now();
-    if (now < stop_deadline_) return;
-    const int sig = terminated_ ? SIGKILL : SIGTERM;
+    const bool others_exited = std::all_of(children_.begin(), children_.end(),
+                                           [](const Child& c) { return c.exited || c.recorder; });
     for (auto& child : children_) {
       if (child.exited) continue;
+      if (child.recorder && others_exited && child.signal_at == Clock::time_point::max()) {
+        child.signal_at = now + kRecorderCloseGrace;
+      }
+      if (now < child.signal_at) continue;
+      const int sig = child.terminated ? SIGKILL : SIGTERM;
       log_->warn("process '{}' still running after stop; sending {}", child.name, strsignal(sig));
       kill(child.pid, sig);
+      child.terminated = true;
+      child.signal_at = now + milliseconds(400);
     }
-    terminated_ = true;
-    stop_deadline_ = now + milliseconds(400);
   }
 
   void ShowProgress() {
@@ -343,8 +359,8 @@ class Supervisor {
   ControlServer& server_;
   std::shared_ptr<spdlog::logger> log_;
   bool progress_;
-  Clock::time_point started_, running_since_, done_at_, stop_deadline_, last_progress_;
-  bool running_ = false, stopping_ = false, terminated_ = false, completed_ = false, interrupted_ = false;
+  Clock::time_point started_, running_since_, done_at_, last_progress_;
+  bool running_ = false, stopping_ = false, completed_ = false, interrupted_ = false;
   std::string failure_;
 };
 
@@ -363,6 +379,95 @@ std::string MakeRunDir(const LaunchOptions& options, const Scenario& scenario) {
     fs::create_directory_symlink(dir.filename(), dir.parent_path() / "latest", ignored);
   }
   return dir.string();
+}
+
+// What each process missed of what its peers published (sent, or dropped at the publisher), per topic,
+// from the processes' bus counters: the recorder (the process that reports what it `recorded`) in every
+// mode, for the topics it records, counted in its bag; every other process in realtime, where each gets
+// every message it subscribed to (lockstep and fast mute the processes not due at a step, by design).
+// Only non-zero counts appear.
+nlohmann::json CountLosses(const Scenario& scenario, const nlohmann::json& processes, uint64_t* total) {
+  std::map<std::string, std::map<std::string, uint64_t>> published;  // topic -> publisher -> messages
+  for (const auto& [name, entry] : processes.items()) {
+    if (!entry.contains("bus")) continue;
+    for (const auto& [topic, c] : entry["bus"]["topics"].items()) {
+      const uint64_t n = c.value("sent", uint64_t{0}) + c.value("dropped", uint64_t{0});
+      if (n > 0) published[topic][name] = n;
+    }
+  }
+  const auto published_by_others = [&](const std::string& topic, const std::string& self) {
+    uint64_t n = 0;
+    if (const auto it = published.find(topic); it != published.end()) {
+      for (const auto& [publisher, count] : it->second) n += publisher == self ? 0 : count;
+    }
+    return n;
+  };
+  nlohmann::json losses = nlohmann::json::object();
+  *total = 0;
+  const auto add = [&](const std::string& process, const std::string& topic, uint64_t expected,
+                       uint64_t got) {
+    if (got >= expected) return;
+    losses[process][topic] = expected - got;
+    *total += expected - got;
+  };
+  for (const auto& [name, entry] : processes.items()) {
+    if (!entry.contains("bus")) continue;
+    if (entry.contains("process") && entry["process"].contains("recorded")) {
+      const auto& recorded = entry["process"]["recorded"];
+      for (const auto& [topic, by_publisher] : published) {
+        if (scenario.recording.Records(topic)) {
+          add(name, topic, published_by_others(topic, name), recorded.value(topic, uint64_t{0}));
+        }
+      }
+    } else if (scenario.mode == ClockMode::kRealtime) {
+      for (const auto& [topic, c] : entry["bus"]["topics"].items()) {
+        if (c.value("subscribed", false)) {
+          add(name, topic, published_by_others(topic, name), c.value("received", uint64_t{0}));
+        }
+      }
+    }
+  }
+  return losses;
+}
+
+// A recorder that did not exit by itself (killed while hung, or after its close grace) leaves its bag
+// unindexed: it is reindexed in place from its whole chunks, so that the run directory holds a complete bag.
+// Returns what was done (empty: nothing to do).
+std::string RepairKilledRecording(const Scenario& scenario, const std::vector<Child>& children,
+                                  const std::string& run_dir, spdlog::logger& log) {
+  const std::string bag = run_dir + "/run.bag";
+  for (const Child& child : children) {
+    if (!child.recorder || (WIFEXITED(child.status) && WEXITSTATUS(child.status) == 0)) continue;
+    try {
+      std::string note = BagReader(bag).note();
+      if (note.empty()) return "";
+      BagWriterOptions options;
+      options.compression =
+          scenario.recording.compression == "lz4" ? BagCompression::kLz4 : BagCompression::kNone;
+      const uint64_t messages = ReindexBag(bag, bag + ".reindexed", options);
+      fs::rename(bag + ".reindexed", bag);
+      note = "the recorder " + DescribeExit(child.status) + "; its bag was " + note + "; now reindexed, " +
+             std::to_string(messages) + " messages";
+      log.warn("{}", note);
+      return note;
+    } catch (const std::exception& e) {
+      log.error("the recorder {}; its bag {} cannot be repaired: {}", DescribeExit(child.status), bag,
+                e.what());
+      return std::string("not repaired: ") + e.what();
+    }
+  }
+  return "";
+}
+
+std::string DescribeLosses(const nlohmann::json& losses, uint64_t total) {
+  std::string text = std::to_string(total) + " message" + (total == 1 ? "" : "s") + " lost:";
+  for (const auto& [process, topics] : losses.items()) {
+    for (const auto& [topic, n] : topics.items()) {
+      text += " " + process + " missed " + std::to_string(n.get<uint64_t>()) + " on " + topic + ";";
+    }
+  }
+  text.back() = ' ';
+  return text + "(metrics.json: losses)";
 }
 
 }  // namespace
@@ -460,6 +565,7 @@ LaunchResult Launch(const LaunchOptions& options) {
     child.log_path = result.run_dir + "/logs/" + p.name + ".log";
     child.hang_timeout_s = p.hang_timeout_s;
     child.startup_timeout_s = p.startup_timeout_s;
+    child.recorder = p.name == kRecorderProcess && scenario.recording.enabled;
     child.pid = Spawn(
         {executables[p.name], "--scenario", resolved_path, "--node", p.name, "--run-dir", result.run_dir},
         child.log_path);
@@ -469,6 +575,7 @@ LaunchResult Launch(const LaunchOptions& options) {
 
   Supervisor supervisor(scenario, children, server, log, options.progress);
   const std::string failure = supervisor.Run();
+  const std::string repaired = RepairKilledRecording(scenario, supervisor.children(), result.run_dir, *log);
 
   // metrics.json: what the run measured, and every process's own report
   nlohmann::json metrics;
@@ -480,6 +587,7 @@ LaunchResult Launch(const LaunchOptions& options) {
   metrics["clock_step_s"] = scenario.clock.step_s;
   metrics["result"] = failure.empty() ? "completed" : "failed";
   if (!failure.empty()) metrics["failure"] = failure;
+  if (!repaired.empty()) metrics["recording_repaired"] = repaired;
   const double wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
   metrics["wall_time_s"] = wall_s;
   for (const auto& child : supervisor.children()) {
@@ -500,13 +608,21 @@ LaunchResult Launch(const LaunchOptions& options) {
           metrics["sim_time_s"].get<double>();
     }
   }
+  uint64_t lost = 0;
+  metrics["losses"] = CountLosses(scenario, metrics["processes"], &lost);
+  metrics["messages_lost"] = lost;
+  if (failure.empty() && lost > 0) metrics["result"] = "completed_with_losses";
   std::ofstream(result.run_dir + "/metrics.json") << metrics.dump(2) << "\n";
 
   if (!failure.empty()) {
     result.exit_code = supervisor.interrupted() ? 130 : 1;
     result.message = failure;
+  } else if (lost > 0) {
+    result.exit_code = 3;
+    result.message = DescribeLosses(metrics["losses"], lost);
+    log->warn("{}", result.message);
   }
-  log->info("run {} after {:.2f} s", failure.empty() ? "completed" : "failed", wall_s);
+  log->info("run {} after {:.2f} s", metrics["result"].get<std::string>(), wall_s);
   log->flush();
   return result;
 }

@@ -3,8 +3,12 @@
 //
 // A crashed process (any exit before the end, or a signal), a hung one (no heartbeat within its
 // hang_timeout_s) or one that reports an error ends the run: every other process is told to stop, then
-// SIGTERM, then SIGKILL, so that the run is over within about a second and nothing is left behind. Children
-// also get SIGTERM if the launcher itself dies (PR_SET_PDEATHSIG).
+// SIGTERM, then SIGKILL, so that the run is over within about a second and nothing is left behind; the
+// recorder is signalled only if it has not closed its bag 10 s after the others exited, and a killed
+// recorder's bag is reindexed. Children also get SIGTERM if the launcher itself dies (PR_SET_PDEATHSIG).
+//
+// After the run, the launcher counts what each process missed of what the others published (see
+// CountLosses in launcher.cc); a run that lost messages exits 3 and says which.
 
 #include <string>
 #include <vector>
@@ -25,7 +29,9 @@ struct LaunchOptions {
 };
 
 struct LaunchResult {
-  int exit_code = 0;    // 0 ok, 1 a process failed, 2 bad configuration, 130 interrupted
+  // 0 ok, 1 a process failed, 2 bad configuration, 3 completed but messages were lost (the run directory is
+  // complete; metrics.json says which, per process and topic), 130 interrupted
+  int exit_code = 0;
   std::string run_dir;  // empty when nothing was started
   std::string message;  // why it failed
 };

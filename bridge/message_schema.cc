@@ -360,4 +360,19 @@ int SchemaSet::HeaderStampOffset() const {
   return 4;  // std_msgs/Header is uint32 seq, time stamp, string frame_id
 }
 
+int SchemaSet::StampOffset() const {
+  const auto& fields = root_->fields;
+  if (!fields.empty() && fields[0].kind == FieldKind::kTime && fields[0].array_size < 0) return 0;
+  return HeaderStampOffset();
+}
+
+std::optional<int64_t> MessageStampNs(const SchemaSet& schema, const uint8_t* data, size_t size) {
+  const int offset = schema.StampOffset();
+  if (offset < 0 || size < static_cast<size_t>(offset) + 8) return std::nullopt;
+  uint32_t sec, nsec;
+  std::memcpy(&sec, data + offset, 4);
+  std::memcpy(&nsec, data + offset + 4, 4);
+  return int64_t{sec} * 1000000000 + nsec;
+}
+
 }  // namespace iapsim::bridge

@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <variant>
@@ -83,10 +84,18 @@ class SchemaSet {
   /// Byte offset of header.stamp when the message starts with a std_msgs/Header, else -1.
   int HeaderStampOffset() const;
 
+  /// Byte offset of the sim time the message refers to: header.stamp, or the first field when it is a
+  /// `time` (rosgraph_msgs/Clock); -1 for a type without one.
+  int StampOffset() const;
+
  private:
   std::vector<std::unique_ptr<MessageSchema>> schemas_;
   const MessageSchema* root_ = nullptr;
 };
+
+/// The sim time (ns) at StampOffset() of a message of `schema`, or nullopt when the type has none or the
+/// message is too short to hold it.
+std::optional<int64_t> MessageStampNs(const SchemaSet& schema, const uint8_t* data, size_t size);
 
 /// Serialized size in bytes of one element of a fixed-size primitive kind (0 for string/message).
 size_t PrimitiveSize(FieldKind kind);

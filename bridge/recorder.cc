@@ -17,17 +17,8 @@ constexpr char kTickTopic[] = "/iapsim/tick";
 constexpr char kAckTopic[] = "/iapsim/ack";
 // a publisher's written messages are moved out of its buffer once they are the larger part and at least this
 constexpr size_t kReclaimBytes = 1 << 20;
-// on stop, what is still queued on the bus is written too, unless reading it takes longer than this
-constexpr auto kDrainLimit = std::chrono::seconds(1);
 
 double Seconds(Clock::duration duration) { return std::chrono::duration<double>(duration).count(); }
-
-bool StartsWithAny(const std::string& topic, const std::vector<std::string>& prefixes) {
-  for (const auto& p : prefixes) {
-    if (topic.compare(0, p.size(), p) == 0) return true;
-  }
-  return false;
-}
 
 // One publisher's messages not written yet, in its send order, in buffers reused from step to step, and the
 // steps its acknowledgements (or ticks) closed.
@@ -35,7 +26,8 @@ struct Publisher {
   struct Message {
     uint32_t connection;  // in the bag
     uint32_t size;
-    size_t offset;  // in bytes
+    size_t offset;     // in bytes
+    int64_t stamp_ns;  // the sim time it refers to; -1: none (the step that closed it stands in)
   };
   struct Close {
     uint64_t step;
@@ -48,20 +40,15 @@ struct Publisher {
   std::vector<Close> closes;
   size_t next_close = 0;
 
-  void Add(uint32_t connection, const uint8_t* data, size_t size) {
-    messages.push_back({connection, static_cast<uint32_t>(size), bytes.size()});
+  void Add(uint32_t connection, const uint8_t* data, size_t size, int64_t stamp_ns) {
+    messages.push_back({connection, static_cast<uint32_t>(size), bytes.size(), stamp_ns});
     bytes.insert(bytes.end(), data, data + size);
   }
   void CloseStep(uint64_t step) { closes.push_back({step, reclaimed + messages.size()}); }
   bool HasClosedSteps() const { return next_close < closes.size(); }
   uint64_t NextClosedStep() const { return closes[next_close].step; }
-
-  // The end of the messages closed by steps up to `step` (an index into `messages`).
-  size_t EndOfStep(uint64_t step) {
-    uint64_t end = reclaimed + next_message;
-    while (next_close < closes.size() && closes[next_close].step <= step) end = closes[next_close++].end;
-    return static_cast<size_t>(end - reclaimed);
-  }
+  // The end of the messages closed by the next close (an index into `messages`).
+  size_t EndOfNextClose() const { return static_cast<size_t>(closes[next_close].end - reclaimed); }
 
   // Drops what was written once it outweighs the rest (so an element is moved about once at most), and the
   // messages' bytes all at once when everything is written.
@@ -99,7 +86,6 @@ class Recorder : public Process {
     BagWriterOptions options;
     options.compression = recording_.compression == "lz4" ? BagCompression::kLz4 : BagCompression::kNone;
     bag_ = std::make_unique<BagWriter>(bag_path_, options);
-    bus_ = &bus;
     bus.SubscribeRaw("", [this](const uint8_t* data, size_t size, const MessageInfo& info) {
       OnMessage(data, size, info);
     });
@@ -109,19 +95,15 @@ class Recorder : public Process {
 
   void Step(const StepInfo& step) override {
     const auto start = Clock::now();
-    WriteStep(step.step, step.stamp_ns);
+    WriteStep(step.step);
     step_s_ += Seconds(Clock::now() - start);
   }
 
   void Finish(nlohmann::json* report) override {
     if (!bag_) return;
     const auto start = Clock::now();
-    // what is still on the bus was sent before the stop: read it (ticks and acks close their steps)
-    const auto drain_end = Clock::now() + kDrainLimit;
-    while (bus_->Spin(std::chrono::microseconds(0)) > 0 && Clock::now() < drain_end) {
-    }
-    // the run may have ended early (a process died): write what each publisher closed, step by step, then
-    // whatever else reached us
+    // the runtime has read what was still on the bus; the run may have ended early (a process died): write
+    // what each publisher closed, step by step, then whatever else reached us
     while (true) {
       bool any = false;
       uint64_t step = 0;
@@ -131,10 +113,10 @@ class Recorder : public Process {
         any = true;
       }
       if (!any) break;
-      WriteStep(step, static_cast<int64_t>(step) * step_ns_);
+      WriteStep(step);
     }
     for (auto& [name, publisher] : publishers_)
-      WriteMessages(publisher, publisher.messages.size(), last_stamp_ns_);
+      WriteMessages(publisher, publisher.messages.size(), last_step_stamp_ns_);
     step_s_ += Seconds(Clock::now() - start);
     bag_->Close();
     Report(report);
@@ -148,13 +130,17 @@ class Recorder : public Process {
     Kind kind = Kind::kData;
     int64_t connection = -1;  // in the bag; -1 when the topic is not recorded
     std::string md5;          // a publisher that changes the topic's type gets another connection
+    const SchemaSet* schema = nullptr;  // recorded topics: finds the message's stamp
   };
 
   void OnMessage(const uint8_t* data, size_t size, const MessageInfo& info) {
     if (info.stream >= streams_.size()) streams_.resize(info.stream + 1);
     Stream& stream = streams_[info.stream];
     if (stream.publisher == nullptr || stream.md5 != info.md5) stream = MakeStream(info);
-    if (stream.connection >= 0) stream.publisher->Add(static_cast<uint32_t>(stream.connection), data, size);
+    if (stream.connection >= 0) {
+      const int64_t stamp_ns = MessageStampNs(*stream.schema, data, size).value_or(-1);
+      stream.publisher->Add(static_cast<uint32_t>(stream.connection), data, size, stamp_ns);
+    }
     // acks and ticks are sent after the data they close (same socket, same order); both messages begin
     // with `uint64 step`, and the runtime decodes and checks them in full
     if (stream.kind != Kind::kData) {
@@ -174,9 +160,7 @@ class Recorder : public Process {
     stream.md5 = info.md5;
     if (info.topic == kTickTopic) stream.kind = Kind::kTick;
     if (info.topic == kAckTopic) stream.kind = Kind::kAck;
-    const bool recorded = (recording_.include.empty() || StartsWithAny(info.topic, recording_.include)) &&
-                          !StartsWithAny(info.topic, recording_.exclude);
-    if (!recorded) return stream;
+    if (!recording_.Records(info.topic)) return stream;
     const RegisteredType* type = FindType(info.datatype);
     if (!type || type->info.md5 != info.md5) {
       throw BusError("recorder: topic '" + info.topic + "' from '" + info.publisher + "' has type " +
@@ -184,6 +168,7 @@ class Recorder : public Process {
                      ") that is not in iapsim's message registry (bridge/message_registry.cc)");
     }
     stream.connection = bag_->Connection(info.topic, type->info, info.publisher);
+    stream.schema = type->schema.get();
     if (connection_topics_.size() <= static_cast<size_t>(stream.connection)) {
       connection_topics_.resize(stream.connection + 1);
       written_.resize(stream.connection + 1, 0);
@@ -192,19 +177,28 @@ class Recorder : public Process {
     return stream;
   }
 
-  // Writes every publisher's messages closed by steps up to `step`, at `stamp_ns`, publishers in name order.
-  void WriteStep(uint64_t step, int64_t stamp_ns) {
-    last_stamp_ns_ = std::max(last_stamp_ns_, stamp_ns);
-    for (auto& [name, publisher] : publishers_) WriteMessages(publisher, publisher.EndOfStep(step), stamp_ns);
+  // Writes every publisher's messages closed by steps up to `step`, publishers in name order. A message's
+  // record time is its own stamp (the sim time it refers to, whenever it arrived); a message without one is
+  // recorded at the sim time of the step whose acknowledgement closed it.
+  void WriteStep(uint64_t step) {
+    for (auto& [name, publisher] : publishers_) {
+      while (publisher.HasClosedSteps() && publisher.NextClosedStep() <= step) {
+        const int64_t step_stamp_ns = static_cast<int64_t>(publisher.NextClosedStep()) * step_ns_;
+        last_step_stamp_ns_ = std::max(last_step_stamp_ns_, step_stamp_ns);
+        WriteMessages(publisher, publisher.EndOfNextClose(), step_stamp_ns);
+        ++publisher.next_close;
+      }
+      publisher.Reclaim();
+    }
   }
 
-  void WriteMessages(Publisher& publisher, size_t end, int64_t stamp_ns) {
+  void WriteMessages(Publisher& publisher, size_t end, int64_t step_stamp_ns) {
     for (; publisher.next_message < end; ++publisher.next_message) {
       const Publisher::Message& m = publisher.messages[publisher.next_message];
-      bag_->Write(m.connection, stamp_ns, publisher.bytes.data() + m.offset, m.size);
+      bag_->Write(m.connection, m.stamp_ns >= 0 ? m.stamp_ns : step_stamp_ns,
+                  publisher.bytes.data() + m.offset, m.size);
       ++written_[m.connection];
     }
-    publisher.Reclaim();
   }
 
   void Report(nlohmann::json* report) const {
@@ -241,12 +235,11 @@ class Recorder : public Process {
   int64_t step_ns_;
   std::string bag_path_;
   std::unique_ptr<BagWriter> bag_;
-  Bus* bus_ = nullptr;
   std::map<std::string, Publisher> publishers_;  // by name: std::map gives the canonical order
   std::vector<Stream> streams_;                  // by MessageInfo::stream
   std::vector<std::string> connection_topics_;   // by bag connection
   std::vector<uint64_t> written_;                // by bag connection
-  int64_t last_stamp_ns_ = 0;
+  int64_t last_step_stamp_ns_ = 0;               // of the newest step a publisher closed
   double step_s_ = 0.0;  // writing to the bag, compression and system calls included
 };
 

@@ -57,7 +57,7 @@ class Replayer : public Process {
     const int64_t horizon_ns = step.stamp_ns + step_ns_;
     while (next_ < queue_.size() && queue_[next_].due_ns <= horizon_ns) {
       Scheduled& m = queue_[next_++];
-      const int offset = m.type->schema->HeaderStampOffset();
+      const int offset = m.type->schema->StampOffset();
       if (restamp_ && offset >= 0 && m.bytes.size() >= static_cast<size_t>(offset) + 8) {
         const uint32_t sec = static_cast<uint32_t>(m.due_ns / 1000000000);
         const uint32_t nsec = static_cast<uint32_t>(m.due_ns % 1000000000);
@@ -162,15 +162,10 @@ class Replayer : public Process {
     queue_.push_back(Scheduled{time_ns, topic, kPoseStamped, Encode(message)});
   }
 
-  // the time a message refers to: its header.stamp when it has one (what the data means), else when it was
+  // the time a message refers to: its stamp when it has one (what the data means), else when it was
   // recorded (a bag cannot store time 0, so record times of t = 0 read 1 ns)
   static int64_t MessageTimeNs(const RegisteredType& type, const BagMessage& m) {
-    const int offset = type.schema->HeaderStampOffset();
-    if (offset < 0 || m.bytes.size() < static_cast<size_t>(offset) + 8) return m.record_time_ns;
-    uint32_t sec, nsec;
-    std::memcpy(&sec, m.bytes.data() + offset, 4);
-    std::memcpy(&nsec, m.bytes.data() + offset + 4, 4);
-    return int64_t{sec} * 1000000000 + nsec;
+    return MessageStampNs(*type.schema, m.bytes.data(), m.bytes.size()).value_or(m.record_time_ns);
   }
 
   static void ReadStringList(YamlMap& params, const std::string& key, std::vector<std::string>* out) {

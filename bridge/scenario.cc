@@ -17,8 +17,6 @@
 namespace iapsim::bridge {
 namespace {
 
-constexpr char kRecorderName[] = "recorder";
-
 ClockMode ParseMode(const std::string& mode) {
   if (mode == "realtime") return ClockMode::kRealtime;
   if (mode == "fast") return ClockMode::kFast;
@@ -167,6 +165,14 @@ const char* ToString(ProcessRole role) {
   return "?";
 }
 
+bool RecordingConfig::Records(const std::string& topic) const {
+  const auto starts_with_any = [&](const std::vector<std::string>& prefixes) {
+    return std::any_of(prefixes.begin(), prefixes.end(),
+                       [&](const std::string& p) { return topic.compare(0, p.size(), p) == 0; });
+  };
+  return (include.empty() || starts_with_any(include)) && !starts_with_any(exclude);
+}
+
 int64_t Scenario::step_ns() const { return std::llround(clock.step_s * 1e9); }
 
 uint64_t Scenario::last_step() const {
@@ -249,7 +255,7 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
         name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") != std::string::npos) {
       process_maps.Fail(name, "process names use lowercase letters, digits and '_'");
     }
-    if (name == kRecorderName && s.recording.enabled) {
+    if (name == kRecorderProcess && s.recording.enabled) {
       process_maps.Fail(name, "'recorder' is added by the launcher when recording.enabled is true");
     }
     ProcessConfig p;
@@ -302,7 +308,7 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
 
   if (s.recording.enabled) {
     ProcessConfig recorder;
-    recorder.name = kRecorderName;
+    recorder.name = kRecorderProcess;
     recorder.exec = "iapsim_recorder";
     recorder.role = ProcessRole::kObserver;
     recorder.max_lag_steps = s.recording.max_lag_steps;

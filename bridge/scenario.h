@@ -44,6 +44,9 @@ struct BusConfig {
   std::string control_endpoint;                  // the launcher's control socket
 };
 
+/// The name of the process the launcher adds when recording.enabled is true.
+inline constexpr char kRecorderProcess[] = "recorder";
+
 struct RecordingConfig {
   bool enabled = true;
   std::vector<std::string> include;              // topic prefixes; empty: every topic
@@ -53,6 +56,9 @@ struct RecordingConfig {
   // step); bounds what the recorder holds in memory and in its bus queues. 500 at 1 kHz: the stereo
   // scenario's seven 210 KiB images at 20 Hz are 10 frames, 15 MiB in the render process's queue (of 64)
   uint64_t max_lag_steps = 500;
+
+  /// Whether the recorder writes `topic` (by the include and exclude prefixes).
+  bool Records(const std::string& topic) const;
 };
 
 struct ProcessConfig {

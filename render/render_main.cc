@@ -111,6 +111,22 @@ class RenderNode : public bridge::Process {
 
   void Step(const bridge::StepInfo& step) override {
     PublishDone();
+    RequestFrame(step);
+    // lockstep and fast: the step's images go out before it is acknowledged; realtime: at the last step, so
+    // that the run's last frame is out before the run ends (and reaches the recorder)
+    if (synchronous_ || step.final) AwaitFrame();
+  }
+
+  void Finish(nlohmann::json* report) override {
+    StopWorker();
+    if (bus_) PublishDone();
+    FinishReport(report);
+  }
+
+ private:
+  // Asks the drawing thread for a frame of the cameras due at `step`, of the newest state, unless the
+  // previous frame is still drawing (realtime; it is skipped and counted).
+  void RequestFrame(const bridge::StepInfo& step) {
     std::vector<int> due;
     for (size_t c = 0; c < cameras_.size(); ++c) {
       if (step.step % camera_every_[c] == 0) due.push_back(static_cast<int>(c));
@@ -131,18 +147,18 @@ class RenderNode : public bridge::Process {
     }
     if (frames_ == 0) first_request_ = Clock::now();
     changed_.notify_all();
-    if (synchronous_) {
-      std::unique_lock lock(mutex_);
-      changed_.wait(lock, [this] { return done_ || worker_error_; });
-      if (worker_error_) std::rethrow_exception(worker_error_);
-      lock.unlock();
-      PublishDone();
-    }
   }
 
-  void Finish(nlohmann::json* report) override {
-    StopWorker();
-    if (bus_) PublishDone();
+  // Waits for the frame being drawn, if any, and publishes it.
+  void AwaitFrame() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [this] { return !request_ || done_ || worker_error_; });
+    if (worker_error_) std::rethrow_exception(worker_error_);
+    lock.unlock();
+    PublishDone();
+  }
+
+  void FinishReport(nlohmann::json* report) {
     nlohmann::json& out = *report;
     out["renderer"] = renderer_description_;
     out["frames"] = frames_;
@@ -169,7 +185,6 @@ class RenderNode : public bridge::Process {
     }
   }
 
- private:
   void ReadVehicles(const bridge::ProcessContext& context, bridge::YamlMap& params) {
     const YAML::Node list = params.Raw("vehicles");
     if (!list || !list.IsSequence() || list.size() == 0) {

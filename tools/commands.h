@@ -55,6 +55,14 @@ int Regress(const RegressArgs& args);
 
 int Info(const std::string& bag);
 
+struct ReindexArgs {
+  std::string bag;
+  std::string output;  // empty: in place, the original kept as BAG.orig.bag (rosbag reindex's habit)
+  bool lz4 = false;    // compress the copy's chunks
+};
+/// Writes the index of a bag its writer did not close (a killed recorder's), from the whole chunks it holds.
+int Reindex(const ReindexArgs& args);
+
 struct VideoArgs {
   std::string bag;
   std::string camera;  // eye namespace or image topic

@@ -111,6 +111,18 @@ int main(int argc, char** argv) {
   auto* info_cmd = app.add_subcommand("info", "list a bag's topics, types, counts and rates");
   info_cmd->add_option("bag", info_bag, "bag file")->required()->check(CLI::ExistingFile);
 
+  ReindexArgs reindex;
+  auto* bag_cmd = app.add_subcommand("bag", "repair a bag");
+  bag_cmd->require_subcommand(1);
+  auto* reindex_cmd = bag_cmd->add_subcommand(
+      "reindex",
+      "write the index of a bag its writer did not close (a killed recorder's), from its whole chunks");
+  reindex_cmd->add_option("bag", reindex.bag, "bag file")->required()->check(CLI::ExistingFile);
+  reindex_cmd->add_option(
+      "-o,--output", reindex.output,
+      "write an indexed copy here (default: in place, the original kept as BAG.orig.bag)");
+  reindex_cmd->add_flag("--lz4", reindex.lz4, "compress the chunks of what is written with lz4");
+
   VideoArgs video;
   auto* video_cmd = app.add_subcommand("video", "an MP4 and a contact sheet of a camera's images in a bag");
   video_cmd->add_option("bag", video.bag, "bag file")->required()->check(CLI::ExistingFile);
@@ -179,6 +191,7 @@ int main(int argc, char** argv) {
     if (*evaluate_cmd) return Evaluate(evaluate_run);
     if (*regress_cmd) return Regress(regress);
     if (*info_cmd) return Info(info_bag);
+    if (*reindex_cmd) return Reindex(reindex);
     if (*export_cmd) return Export(exp);
     if (*video_cmd) return Video(video);
     if (*topics_cmd) return Topics(topics);

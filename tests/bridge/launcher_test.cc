@@ -9,6 +9,7 @@
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include <atomic>
 #include <chrono>
 #include <csignal>
 #include <filesystem>
@@ -19,11 +20,34 @@
 #include <tuple>
 
 #include "bridge/bag.h"
+#include "bridge/message_registry.h"
+#include "bridge/message_schema.h"
 
 namespace iapsim::bridge {
 namespace {
 
 namespace fs = std::filesystem;
+
+std::string FileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// processes other than this one whose command line holds `text` (a test's directory: its runs' processes)
+std::vector<pid_t> ProcessesMentioning(const std::string& text) {
+  std::vector<pid_t> pids;
+  DIR* proc = opendir("/proc");
+  while (dirent* entry = readdir(proc)) {
+    if (entry->d_name[0] < '0' || entry->d_name[0] > '9') continue;
+    std::ifstream in(std::string("/proc/") + entry->d_name + "/cmdline", std::ios::binary);
+    const std::string cmdline((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (cmdline.find(text) != std::string::npos && std::to_string(getpid()) != entry->d_name) {
+      pids.push_back(std::atoi(entry->d_name));
+    }
+  }
+  closedir(proc);
+  return pids;
+}
 
 class LauncherTest : public ::testing::Test {
  protected:
@@ -54,12 +78,40 @@ class LauncherTest : public ::testing::Test {
     return Launch(options);
   }
 
+  // Starts a run on another thread, and returns the pid of its process `node` once the clock has started (0
+  // when the run ended first or the process was not found); WaitForBackgroundRun() joins it.
+  pid_t StartInBackground(const std::string& scenario, std::vector<std::string> overrides,
+                          const std::string& node) {
+    background_ = std::thread([this, scenario, overrides] {
+      background_result_ = Run(scenario, "run", overrides);
+      background_done_ = true;
+    });
+    const std::string log_path = (dir_ / "run" / "log.txt").string();
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (std::chrono::steady_clock::now() < give_up && !background_done_) {
+      if (FileBytes(log_path).find("clock started") != std::string::npos) {
+        const auto pids = ProcessesMentioning(std::string("--node") + '\0' + node + '\0' + "--run-dir" +
+                                              '\0' + (dir_ / "run").string());
+        return pids.size() == 1 ? pids[0] : 0;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return 0;
+  }
+  LaunchResult WaitForBackgroundRun() {
+    background_.join();
+    return background_result_;
+  }
+
   static nlohmann::json Metrics(const LaunchResult& result) {
     std::ifstream in(result.run_dir + "/metrics.json");
     return nlohmann::json::parse(in);
   }
 
   fs::path dir_;
+  std::thread background_;
+  LaunchResult background_result_;
+  std::atomic<bool> background_done_{false};
 };
 
 // clock (1 kHz) -> controller (1 kHz) -> clock, a 200 Hz sensor, and the recorder
@@ -93,27 +145,6 @@ std::map<std::string, uint64_t> CountsInBag(const LaunchResult& result) {
   std::map<std::string, uint64_t> counts;
   for (const auto& t : BagReader(result.run_dir + "/run.bag").Topics()) counts[t.topic] = t.count;
   return counts;
-}
-
-std::string FileBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-// processes other than this one whose command line holds `text` (a test's directory: its runs' processes)
-std::vector<pid_t> ProcessesMentioning(const std::string& text) {
-  std::vector<pid_t> pids;
-  DIR* proc = opendir("/proc");
-  while (dirent* entry = readdir(proc)) {
-    if (entry->d_name[0] < '0' || entry->d_name[0] > '9') continue;
-    std::ifstream in(std::string("/proc/") + entry->d_name + "/cmdline", std::ios::binary);
-    const std::string cmdline((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (cmdline.find(text) != std::string::npos && std::to_string(getpid()) != entry->d_name) {
-      pids.push_back(std::atoi(entry->d_name));
-    }
-  }
-  closedir(proc);
-  return pids;
 }
 
 TEST_F(LauncherTest, LockstepHundredThousandStepsRecordsEveryMessageOnceAndDeterministically) {
@@ -424,6 +455,65 @@ TEST_F(LauncherTest, RealtimeModeFollowsTheWallClockAndCountsLateAcks) {
   ASSERT_TRUE(metrics["processes"]["physics"].contains("late_acks"));
   EXPECT_TRUE(metrics["processes"]["physics"]["late_acks"].contains("control"));
   EXPECT_EQ(metrics["processes"]["control"]["process"]["steps"], 101);
+  EXPECT_EQ(metrics["result"], "completed");
+  EXPECT_EQ(metrics["messages_lost"], 0);
+  // every message is recorded at the sim time it refers to, however late it reached the recorder
+  uint64_t stamped = 0;
+  BagReader(result.run_dir + "/run.bag").ForEach({}, [&](const BagMessage& m) {
+    const RegisteredType* type = FindType(m.type.datatype);
+    EXPECT_NE(type, nullptr) << m.type.datatype;
+    if (!type) return false;
+    const auto stamp_ns = MessageStampNs(*type->schema, m.bytes.data(), m.bytes.size());
+    EXPECT_TRUE(stamp_ns.has_value()) << m.topic;  // /clock, state, command and ranges all carry one
+    if (stamp_ns) EXPECT_EQ(m.record_time_ns, std::max<int64_t>(1, *stamp_ns)) << m.topic;
+    ++stamped;
+    return true;
+  });
+  EXPECT_EQ(stamped, 101u * 3 + 51);
+}
+
+// The recorder stopped (SIGSTOP) for a second of a realtime run, its queues capped at 1 MiB: the
+// publishers go on and the recorder misses what does not fit. The run says so (exit 3,
+// completed_with_losses), and the losses it reports per topic are exactly what the bag lacks.
+TEST_F(LauncherTest, RealtimeReportsExactlyTheMessagesMissingFromTheBag) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(12.0));
+  // 4 sim seconds per wall second at 1 kHz: about 2.5 MiB of messages in the second the recorder sleeps
+  const pid_t recorder = StartInBackground(
+      scenario, {"mode=realtime", "clock.realtime_factor=4.0", "bus.shm_queue_max_mib=1"}, "recorder");
+  if (recorder > 0) {
+    kill(recorder, SIGSTOP);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1000));  // within its 2 s hang timeout
+    kill(recorder, SIGCONT);
+  }
+  const LaunchResult result = WaitForBackgroundRun();
+  ASSERT_GT(recorder, 0) << "the recorder process was not found: " << result.message;
+  ASSERT_EQ(result.exit_code, 3) << result.message;
+  EXPECT_NE(result.message.find("recorder missed"), std::string::npos) << result.message;
+  const auto metrics = Metrics(result);
+  EXPECT_EQ(metrics["result"], "completed_with_losses");
+  // what was published per topic (sent, or dropped at the publisher), against what the bag holds
+  std::map<std::string, uint64_t> published;
+  for (const auto& [process, entry] : metrics["processes"].items()) {
+    for (const auto& [topic, c] : entry["bus"]["topics"].items()) {
+      published[topic] += c["sent"].get<uint64_t>() + c["dropped"].get<uint64_t>();
+    }
+  }
+  const auto in_bag = CountsInBag(result);
+  const auto& losses = metrics["losses"]["recorder"];
+  uint64_t missing_total = 0;
+  for (const auto& [topic, count] : published) {
+    if (topic.rfind("/iapsim/", 0) == 0) continue;  // protocol topics are not recorded
+    const uint64_t missing = count - (in_bag.count(topic) ? in_bag.at(topic) : 0);
+    EXPECT_EQ(losses.value(topic, uint64_t{0}), missing) << topic;
+    missing_total += missing;
+  }
+  EXPECT_GT(missing_total, 0u);
+  uint64_t reported_total = 0;
+  for (const auto& [process, topics] : metrics["losses"].items()) {
+    for (const auto& [topic, n] : topics.items()) reported_total += n.get<uint64_t>();
+  }
+  EXPECT_EQ(metrics["messages_lost"].get<uint64_t>(), reported_total);
+  EXPECT_GE(reported_total, missing_total);
 }
 
 // A step of the clock that takes longer than its slot puts the run behind the wall clock: counted, with
@@ -442,6 +532,60 @@ TEST_F(LauncherTest, RealtimeCountsTheStepsTheClockFellBehind) {
   EXPECT_GE(behind["max_ms"].get<double>(), 195.0);
 }
 
+// A participant stopped by SIGSTOP in realtime is found hung and killed; the recorder is given time to
+// write what it has and close its bag, which is indexed and readable.
+TEST_F(LauncherTest, ASigstoppedParticipantInRealtimeLeavesAnIndexedBag) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(30.0));
+  const pid_t control = StartInBackground(
+      scenario, {"mode=realtime", "clock.step_s=0.01", "processes.uwb.rate_hz=50"}, "control");
+  if (control > 0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    kill(control, SIGSTOP);
+  }
+  const LaunchResult result = WaitForBackgroundRun();
+  ASSERT_GT(control, 0) << "the control process was not found: " << result.message;
+  ASSERT_EQ(result.exit_code, 1) << result.message;
+  EXPECT_NE(result.message.find("'control' is not responding"), std::string::npos) << result.message;
+  const auto metrics = Metrics(result);
+  EXPECT_EQ(metrics["processes"]["recorder"]["exit"], "exited with code 0");
+  EXPECT_FALSE(metrics.contains("recording_repaired"));
+  const BagReader bag(result.run_dir + "/run.bag");
+  EXPECT_EQ(bag.note(), "");
+  const auto counts = CountsInBag(result);
+  // the recorder wrote what the clock published until the end: at least the half second before the stop
+  EXPECT_GE(counts.at("/clock"), 50u);
+  EXPECT_EQ(counts.at("/clock"), metrics["processes"]["physics"]["bus"]["topics"]["/clock"]["sent"]);
+}
+
+// A recorder killed in the middle of a run leaves its bag unindexed; the launcher reindexes it from its whole
+// chunks, so the run directory holds a complete bag, and says so.
+TEST_F(LauncherTest, AKilledRecordersBagIsReindexedByTheLauncher) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(60.0));
+  const pid_t recorder = StartInBackground(scenario, {}, "recorder");
+  if (recorder > 0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1000));  // a few chunks written
+    kill(recorder, SIGKILL);
+  }
+  const LaunchResult result = WaitForBackgroundRun();
+  ASSERT_GT(recorder, 0) << "the recorder process was not found: " << result.message;
+  ASSERT_EQ(result.exit_code, 1) << result.message;
+  EXPECT_NE(result.message.find("'recorder'"), std::string::npos) << result.message;
+  const auto metrics = Metrics(result);
+  const std::string repaired = metrics.value("recording_repaired", "");
+  EXPECT_NE(repaired.find("was killed by signal 9"), std::string::npos) << repaired;
+  EXPECT_NE(repaired.find("now reindexed"), std::string::npos) << repaired;
+  const BagReader bag(result.run_dir + "/run.bag");
+  EXPECT_EQ(bag.note(), "");
+  // whole steps of the clock, from step 0 on, without a gap
+  uint64_t clocks = 0;
+  bag.ForEach({"/clock"}, [&](const BagMessage& m) {
+    EXPECT_EQ(m.record_time_ns, std::max<int64_t>(1, static_cast<int64_t>(clocks) * 1000000));
+    ++clocks;
+    return true;
+  });
+  EXPECT_GT(clocks, 1000u);
+}
+
 TEST_F(LauncherTest, ReplayPlaysRecordedTopicsReStampedOntoSimTime) {
   const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
   const LaunchResult recorded = Run(scenario, "recorded");
@@ -458,10 +602,11 @@ TEST_F(LauncherTest, ReplayPlaysRecordedTopicsReStampedOntoSimTime) {
   bag.ForEach({"/old/uwb"}, [&](const BagMessage& m) {
     iapsim_msgs::UwbRanges ranges;
     EXPECT_TRUE(Decode(m.bytes, &ranges, nullptr));
-    // recorded every 5 ms from t = 0; replayed from 0.5 s, published in the step before it is due
+    // recorded every 5 ms from t = 0; replayed from 0.5 s (published in the step before it is due, and
+    // recorded at its stamp)
     const int64_t due_ns = 500000000 + static_cast<int64_t>(count) * 5000000;
     EXPECT_EQ(static_cast<int64_t>(ranges.header.stamp.toNSec()), due_ns);
-    EXPECT_EQ(m.record_time_ns, due_ns - 1000000);
+    EXPECT_EQ(m.record_time_ns, due_ns);
     ++count;
     return true;
   });
