@@ -80,6 +80,7 @@ struct Subscription {
 
 struct Bus::Impl {
   BusOptions options;
+  BusStats* stats = nullptr;  // the Bus's
   zmq::context_t context{1};
   zmq::socket_t publisher{context, zmq::socket_type::xpub};
   zmq::socket_t subscriber{context, zmq::socket_type::sub};
@@ -242,6 +243,21 @@ struct Bus::Impl {
     next_maintenance = t + std::chrono::milliseconds(1);
     if (shm_publisher) shm_publisher->Accept();
     if (shm_subscriber) shm_subscriber->Maintain();
+    ReportConnectionEvents();
+  }
+  // refusals and dropped subscribers, each logged once, and their counts
+  void ReportConnectionEvents() {
+    std::vector<std::string> events;
+    if (shm_publisher) {
+      events = shm_publisher->TakeEvents();
+      stats->refused_peers = shm_publisher->refused();
+      stats->dropped_subscribers = shm_publisher->dropped_subscribers();
+    }
+    if (shm_subscriber) {
+      for (std::string& e : shm_subscriber->TakeEvents()) events.push_back(std::move(e));
+      stats->refused_peers += shm_subscriber->refused();
+    }
+    for (const std::string& e : events) spdlog::warn("node '{}': {}", options.node_name, e);
   }
   // a process that only publishes takes its subscribers too
   void AcceptSubscribers() {
@@ -249,6 +265,7 @@ struct Bus::Impl {
     if (t < next_accept) return;
     next_accept = t + std::chrono::milliseconds(1);
     shm_publisher->Accept();
+    ReportConnectionEvents();
   }
 
   // subscription notices arrive on the XPUB socket; they are only drained to bound its queue
@@ -261,6 +278,7 @@ struct Bus::Impl {
 
 Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
   impl_->options = options;
+  impl_->stats = &stats_;
   auto& pub = impl_->publisher;
   auto& sub = impl_->subscriber;
   pub.set(zmq::sockopt::sndhwm, options.send_hwm);
@@ -273,8 +291,9 @@ Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
   sub.set(zmq::sockopt::reconnect_ivl, 10);  // peers may bind after we connect: retry quickly
   try {
     if (internal::IsShmEndpoint(options.bind_endpoint)) {
-      impl_->shm_publisher = std::make_unique<internal::ShmPublisher>(internal::ShmPublisher::Options{
-          options.bind_endpoint, options.shm_initial_queue_bytes, options.shm_max_queue_bytes});
+      impl_->shm_publisher = std::make_unique<internal::ShmPublisher>(
+          internal::ShmPublisher::Options{options.bind_endpoint, options.shm_initial_queue_bytes,
+                                          options.shm_max_queue_bytes, options.secret, options.members});
     } else {
       pub.bind(options.bind_endpoint);
     }
@@ -297,7 +316,8 @@ Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
   }
   if (!shm_peers.empty()) {
     try {
-      impl_->shm_subscriber = std::make_unique<internal::ShmSubscriber>(options.node_name, shm_peers);
+      impl_->shm_subscriber =
+          std::make_unique<internal::ShmSubscriber>(options.node_name, shm_peers, options.secret);
     } catch (const std::exception& e) {
       throw BusError("node '" + options.node_name + "': " + e.what());
     }

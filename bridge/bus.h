@@ -60,6 +60,12 @@ struct BusOptions {
   std::chrono::microseconds poll_period{0};
   size_t shm_initial_queue_bytes = 64 << 10;  // per subscriber of an shm:// publisher
   size_t shm_max_queue_bytes = 64 << 20;      // a larger message is an error
+  // shm: what a subscriber must present to a publisher (the run's secret, bridge/run_secret.h); peers of
+  // another user are refused whatever they present
+  std::string secret;
+  // shm: the run's processes. A blocking publisher waits only for these; another subscriber (`iapsim echo`)
+  // is best effort and is dropped when it stops reading. Empty: every subscriber is waited for.
+  std::vector<std::string> members;
 };
 
 struct TopicCounters {
@@ -79,6 +85,8 @@ struct BusStats {
   // sleeps that ran to their timeout: a subscriber woken by its publishers (poll_period 0) only times out
   // when nothing was sent to it (the ZeroMQ path cannot tell and counts none)
   uint64_t sleeps_timed_out = 0;
+  uint64_t refused_peers = 0;        // shm connections refused: another user, or without the run's secret
+  uint64_t dropped_subscribers = 0;  // shm subscribers let go: not of the run, and not reading
 };
 
 /// Metadata of a received message.

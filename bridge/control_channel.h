@@ -4,11 +4,18 @@
 //
 // Process -> launcher: hello (bus bound), ready (handshake done), heartbeat <sim_ns>, done (clock owner
 // finished the run), error <text>, bye <json report>. Launcher -> process: start, stop.
+//
+// Only the run's processes get in: a client authenticates with ZeroMQ's PLAIN mechanism (user name: its
+// process name, password: the run's secret, bridge/run_secret.h), checked by the launcher's ZAP handler
+// (ZeroMQ RFC 27) before a single message passes. A peer with another secret, another name or no
+// credentials at all is refused at the handshake, counted and described (ControlServer::TakeRefusals).
 
 #include <chrono>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace iapsim::bridge {
 
@@ -21,7 +28,7 @@ struct ControlMessage {
 /// The process side: one per process, identified by its name.
 class ControlClient {
  public:
-  ControlClient(const std::string& endpoint, const std::string& process);
+  ControlClient(const std::string& endpoint, const std::string& process, const std::string& secret);
   ~ControlClient();
   void Send(const std::string& kind, const std::string& body = "");
   /// A message from the launcher if one arrives within `timeout`.
@@ -35,10 +42,17 @@ class ControlClient {
 /// The launcher side.
 class ControlServer {
  public:
-  explicit ControlServer(const std::string& endpoint);
+  /// Accepts the `processes` named, with `secret`.
+  ControlServer(const std::string& endpoint, const std::string& secret,
+                const std::vector<std::string>& processes);
   ~ControlServer();
   void Send(const std::string& process, const std::string& kind);
+  /// A message from an accepted process if one arrives within `timeout` (authenticating peers meanwhile).
   std::optional<ControlMessage> Receive(std::chrono::milliseconds timeout);
+  /// Connections refused so far.
+  uint64_t refused() const;
+  /// What was refused since the last call, one line each (who, from where, why), for the log.
+  std::vector<std::string> TakeRefusals();
 
  private:
   struct Impl;

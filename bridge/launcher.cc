@@ -20,6 +20,7 @@
 
 #include "bridge/bag.h"
 #include "bridge/control_channel.h"
+#include "bridge/run_secret.h"
 
 namespace iapsim::bridge {
 namespace {
@@ -121,8 +122,21 @@ struct Child {
   double cpu_system_s = 0.0;
 };
 
-pid_t Spawn(std::vector<std::string> args, const std::string& log_path) {
+// The launcher's environment with IAPSIM_RUN_SECRET set to the run's (whatever the caller's shell had), made
+// before fork: runs launched at once from one program each hand their own to their processes.
+std::vector<std::string> EnvironmentWithSecret(const std::string& secret) {
+  constexpr char kKey[] = "IAPSIM_RUN_SECRET=";
+  std::vector<std::string> env;
+  for (char** entry = environ; *entry != nullptr; ++entry) {
+    if (std::strncmp(*entry, kKey, sizeof(kKey) - 1) != 0) env.emplace_back(*entry);
+  }
+  env.push_back(kKey + secret);
+  return env;
+}
+
+pid_t Spawn(std::vector<std::string> args, std::vector<std::string> env, const std::string& log_path) {
   auto argv = ArgvOf(args);
+  auto envp = ArgvOf(env);
   const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid < 0) throw std::runtime_error("fork failed: " + std::string(std::strerror(errno)));
@@ -142,7 +156,7 @@ pid_t Spawn(std::vector<std::string> args, const std::string& log_path) {
       dup2(fd, STDERR_FILENO);
       close(fd);
     }
-    execv(argv[0], argv.data());
+    execve(argv[0], argv.data(), envp.data());
     _exit(127);
   }
   return pid;
@@ -230,6 +244,9 @@ class Supervisor {
         child->said_bye = true;
         child->report = nlohmann::json::parse(message->body, nullptr, /*allow_exceptions=*/false);
       }
+    }
+    for (const std::string& refusal : server_.TakeRefusals()) {
+      log_->warn("control channel: refused {}", refusal);
     }
   }
 
@@ -528,6 +545,7 @@ LaunchResult Launch(const LaunchOptions& options) {
 
   // the run directory, with the configuration exactly as the processes will use it
   result.run_dir = MakeRunDir(options, scenario);
+  const std::string secret = CreateRunSecret(result.run_dir);
   const std::string run_id =
       std::to_string(getpid()) + "-" + std::to_string(Clock::now().time_since_epoch().count() % 1000000007);
   AssignEndpoints(&scenario, run_id);
@@ -557,7 +575,9 @@ LaunchResult Launch(const LaunchOptions& options) {
   launcher_signal = 0;
 
   const auto wall_start = Clock::now();
-  ControlServer server(scenario.bus.control_endpoint);
+  std::vector<std::string> names;
+  for (const auto& p : scenario.processes) names.push_back(p.name);
+  ControlServer server(scenario.bus.control_endpoint, secret, names);
   std::vector<Child> children;
   for (const auto& p : scenario.processes) {
     Child child;
@@ -568,7 +588,7 @@ LaunchResult Launch(const LaunchOptions& options) {
     child.recorder = p.name == kRecorderProcess && scenario.recording.enabled;
     child.pid = Spawn(
         {executables[p.name], "--scenario", resolved_path, "--node", p.name, "--run-dir", result.run_dir},
-        child.log_path);
+        EnvironmentWithSecret(secret), child.log_path);
     log->info("started {} (pid {}): {}", p.name, child.pid, executables[p.name]);
     children.push_back(child);
   }
@@ -588,6 +608,7 @@ LaunchResult Launch(const LaunchOptions& options) {
   metrics["result"] = failure.empty() ? "completed" : "failed";
   if (!failure.empty()) metrics["failure"] = failure;
   if (!repaired.empty()) metrics["recording_repaired"] = repaired;
+  metrics["control_refused"] = server.refused();
   const double wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
   metrics["wall_time_s"] = wall_s;
   for (const auto& child : supervisor.children()) {

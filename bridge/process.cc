@@ -17,6 +17,7 @@
 #include "bridge/cli_usage.h"
 #include "bridge/control_channel.h"
 #include "bridge/eigen_msgs.h"
+#include "bridge/run_secret.h"
 
 namespace iapsim::bridge {
 namespace {
@@ -54,20 +55,23 @@ nlohmann::json BusReport(const BusStats& stats) {
   }
   return {{"topics", topics},
           {"malformed", stats.malformed},
+          {"refused_peers", stats.refused_peers},
+          {"dropped_subscribers", stats.dropped_subscribers},
           {"sleeps", stats.sleeps},
           {"sleeps_timed_out", stats.sleeps_timed_out}};
 }
 
 class Runtime {
  public:
-  Runtime(const Scenario& scenario, const ProcessConfig& self, Process& process, ControlClient& control)
+  Runtime(const Scenario& scenario, const ProcessConfig& self, Process& process, ControlClient& control,
+          const std::string& secret)
       : scenario_(scenario),
         self_(self),
         process_(process),
         schedule_(scenario),
         self_index_(schedule_.IndexOf(self.name)),
         control_(control),
-        bus_(MakeBusOptions(scenario, self)),
+        bus_(MakeBusOptions(scenario, self, secret)),
         last_ack_(schedule_.members().size(), -1) {
     // the peers whose step-k acks gate this process's step k: every one (recorders) or those it names
     for (size_t m = 0; m < schedule_.members().size(); ++m) {
@@ -102,9 +106,13 @@ class Runtime {
   }
 
  private:
-  static BusOptions MakeBusOptions(const Scenario& scenario, const ProcessConfig& self) {
+  static BusOptions MakeBusOptions(const Scenario& scenario, const ProcessConfig& self,
+                                   const std::string& secret) {
     BusOptions options;
     options.node_name = self.name;
+    options.secret = secret;
+    // lockstep waits for the run's own processes only: another subscriber (`iapsim echo`) never holds it
+    for (const auto& p : scenario.processes) options.members.push_back(p.name);
     options.bind_endpoint = scenario.bus.endpoints.at(self.name);
     for (const auto& [name, endpoint] : scenario.bus.endpoints) {
       if (name != self.name) options.peer_endpoints.push_back(endpoint);
@@ -506,9 +514,10 @@ int ProcessMain(int argc, char** argv, const std::string& description, const Pro
   sigaction(SIGINT, &action, nullptr);
 
   try {
-    ControlClient control(scenario.bus.control_endpoint, self->name);
+    const std::string secret = ReadRunSecret(args.run_dir);
+    ControlClient control(scenario.bus.control_endpoint, self->name, secret);
     try {
-      Runtime runtime(scenario, *self, *process, control);
+      Runtime runtime(scenario, *self, *process, control, secret);
       return runtime.Run();
     } catch (const std::exception& e) {
       control.Send("error", e.what());

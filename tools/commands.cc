@@ -17,6 +17,7 @@
 #include "bridge/launcher.h"
 #include "bridge/message_format.h"
 #include "bridge/message_registry.h"
+#include "bridge/run_secret.h"
 #include "bridge/scenario.h"
 #include "model/urdf.h"
 #include "model/vehicle.h"
@@ -129,6 +130,7 @@ std::unique_ptr<Bus> InspectorBus(const std::string& run_dir) {
   options.bind_endpoint = "ipc://@" + options.node_name;
   for (const auto& [name, endpoint] : scenario.bus.endpoints) options.peer_endpoints.push_back(endpoint);
   options.drop_policy = DropPolicy::kDropNewest;
+  options.secret = ReadRunSecret(run_dir);  // RUN/secret: readable by the user who started the run
   return std::make_unique<Bus>(options);
 }
 

@@ -14,6 +14,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "bridge/run_secret.h"
+
 namespace iapsim::bridge::internal {
 namespace {
 
@@ -21,6 +23,12 @@ constexpr uint32_t kQueueMagic = 0x51534149;  // "IASQ"
 constexpr uint32_t kPageMagic = 0x50534149;   // "IASP"
 constexpr size_t kHeaderBytes = 4096;         // the queue's data starts on its own page
 constexpr auto kReconnectPeriod = std::chrono::milliseconds(10);
+// a subscriber's first message: this kind, then the run's secret
+constexpr char kSecretKind = 'A';
+// an accepted connection that has not sent it by then is refused
+constexpr auto kAuthenticationTimeout = std::chrono::seconds(2);
+// after refusing a publisher of another user, try that endpoint again this much later
+constexpr auto kRefusedRetryPeriod = std::chrono::seconds(1);
 
 // record header: body size and kind; bodies are padded to 8 bytes
 struct RecordHeader {
@@ -374,6 +382,7 @@ ShmPublisher::ShmPublisher(const Options& options) : options_(options) {
 
 ShmPublisher::~ShmPublisher() {
   for (auto& link : links_) close(link.fd);
+  for (const Pending& p : pending_) close(p.fd);
   close(listen_fd_);
 }
 
@@ -381,22 +390,88 @@ void ShmPublisher::Accept() {
   while (true) {
     const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) break;
-    Link link;
-    link.fd = fd;
-    link.page = ShmConnectionPage::Create();
-    link.queue = ShmQueue::Create(options_.initial_queue_bytes);
-    if (!SendWithFds(fd, 'C', {link.page->fd(), link.queue->fd()})) {
+    ucred peer{};
+    socklen_t size = sizeof(peer);
+    if (getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &peer, &size) != 0) {
       close(fd);
       continue;
     }
-    links_.push_back(std::move(link));
+    if (peer.uid != getuid()) {
+      Refuse(fd, peer.pid, "runs as another user (uid " + std::to_string(peer.uid) + ")");
+      continue;
+    }
+    pending_.push_back({fd, peer.pid, SteadyClock::now() + kAuthenticationTimeout});
   }
+  Authenticate();
   MarkHungUp();
   for (auto& link : links_) {
     if (link.dead) close(link.fd);
   }
   links_.erase(std::remove_if(links_.begin(), links_.end(), [](const Link& l) { return l.dead; }),
                links_.end());
+}
+
+// Reads the first message of each accepted connection: the run's secret gets the connection its queue.
+void ShmPublisher::Authenticate() {
+  const auto now = SteadyClock::now();
+  for (size_t i = 0; i < pending_.size();) {
+    const Pending p = pending_[i];
+    char message[128];
+    const ssize_t n = recv(p.fd, message, sizeof(message), MSG_DONTWAIT);
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+      if (now < p.deadline) {
+        ++i;
+        continue;
+      }
+      Refuse(p.fd, p.pid, "sent no secret within 2 s");
+    } else if (n <= 0) {
+      close(p.fd);  // gone before it said anything
+    } else if (message[0] != kSecretKind ||
+               !SameSecret(std::string(message + 1, static_cast<size_t>(n - 1)), options_.secret)) {
+      Refuse(p.fd, p.pid, "did not send the run's secret");
+    } else {
+      Link link;
+      link.fd = p.fd;
+      link.pid = p.pid;
+      link.page = ShmConnectionPage::Create();
+      link.queue = ShmQueue::Create(options_.initial_queue_bytes);
+      if (SendWithFds(p.fd, 'C', {link.page->fd(), link.queue->fd()})) {
+        links_.push_back(std::move(link));
+      } else {
+        close(p.fd);
+      }
+    }
+    pending_.erase(pending_.begin() + static_cast<std::ptrdiff_t>(i));
+  }
+}
+
+void ShmPublisher::Refuse(int fd, pid_t pid, const std::string& why) {
+  close(fd);
+  ++refused_;
+  // a refused subscriber may try again every few milliseconds: each process is described once
+  if (std::find(refused_pids_.begin(), refused_pids_.end(), pid) != refused_pids_.end()) return;
+  refused_pids_.push_back(pid);
+  events_.push_back("refused a subscriber (pid " + std::to_string(pid) + ") that " + why);
+}
+
+bool ShmPublisher::IsMember(const Link& link) const {
+  return options_.members.empty() || std::find(options_.members.begin(), options_.members.end(),
+                                               link.subscriber) != options_.members.end();
+}
+
+// A subscriber that is not a process of the run and does not keep up is let go, never waited for.
+void ShmPublisher::Drop(Link& link) {
+  link.dead = true;
+  ++dropped_subscribers_;
+  events_.push_back("dropped subscriber '" + link.subscriber + "' (pid " + std::to_string(link.pid) +
+                    "): not a process of the run, and its queue stayed full at " +
+                    std::to_string(link.queue->capacity() >> 20) + " MiB");
+}
+
+std::vector<std::string> ShmPublisher::TakeEvents() {
+  std::vector<std::string> events;
+  events.swap(events_);
+  return events;
 }
 
 void ShmPublisher::MarkHungUp() {
@@ -489,6 +564,10 @@ bool ShmPublisher::Publish(std::string_view topic, const ByteSpan* parts, int co
           if (!link.dead) Wake(link);
         } else if (link.queue->capacity() < options_.max_queue_bytes) {
           Grow(link, record_bytes);
+        } else if (!IsMember(link)) {
+          Drop(link);
+          written[i] = 1;
+          --remaining;
         }
       }
       if (remaining == 0) break;
@@ -518,6 +597,10 @@ bool ShmPublisher::Publish(std::string_view topic, const ByteSpan* parts, int co
         continue;
       }
     }
+    if (!IsMember(*link)) {
+      Drop(*link);
+      continue;
+    }
     all = false;  // best effort: this subscriber alone misses the record
   }
   return all;
@@ -529,8 +612,9 @@ void ShmPublisher::Wake(Link& link) {
 
 // ----------------------------------------------------------------------------------------- ShmSubscriber
 
-ShmSubscriber::ShmSubscriber(const std::string& node, const std::vector<std::string>& endpoints)
-    : node_(node) {
+ShmSubscriber::ShmSubscriber(const std::string& node, const std::vector<std::string>& endpoints,
+                             const std::string& secret)
+    : node_(node), secret_(secret) {
   for (const auto& endpoint : endpoints) {
     socklen_t length;
     (void)SocketAddress(endpoint, &length);  // validates the name now, not at the first connect
@@ -560,7 +644,34 @@ void ShmSubscriber::Connect(Link& link) {
     link.next_attempt = SteadyClock::now() + kReconnectPeriod;
     return;
   }
+  // the secret goes only to a publisher of this user
+  ucred peer{};
+  socklen_t size = sizeof(peer);
+  if (getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &peer, &size) != 0 || peer.uid != getuid()) {
+    close(fd);
+    ++refused_;
+    if (!link.refusal_described) {
+      events_.push_back("refused publisher " + link.endpoint + " (pid " + std::to_string(peer.pid) +
+                        "): it runs as another user (uid " + std::to_string(peer.uid) + ")");
+      link.refusal_described = true;
+    }
+    link.next_attempt = SteadyClock::now() + kRefusedRetryPeriod;
+    return;
+  }
+  const std::string message = kSecretKind + secret_;
+  if (send(fd, message.data(), message.size(), MSG_DONTWAIT | MSG_NOSIGNAL) !=
+      static_cast<ssize_t>(message.size())) {
+    close(fd);
+    link.next_attempt = SteadyClock::now() + kReconnectPeriod;
+    return;
+  }
   link.fd = fd;
+}
+
+std::vector<std::string> ShmSubscriber::TakeEvents() {
+  std::vector<std::string> events;
+  events.swap(events_);
+  return events;
 }
 
 void ShmSubscriber::Close(Link& link) {

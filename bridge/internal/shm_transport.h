@@ -7,6 +7,10 @@
 // the queue (SCM_RIGHTS), a one-byte wake-up for a subscriber that went to sleep, and the hang-up when either
 // side exits (nothing is left in the file system, even after kill -9).
 //
+// Who may connect: both ends check that the other runs as the same user (SO_PEERCRED), and a subscriber's
+// first message is the run's secret (bridge/run_secret.h); a publisher hands its queue only to a subscriber
+// that sent it. Every refusal is counted and described with the peer's pid and uid.
+//
 // Why not ZeroMQ for this: a ZeroMQ message between processes passes two I/O threads, three thread wake-ups
 // of ~25 us each on a VM; here a sleeping subscriber costs one wake-up and a spinning one none. Why our own
 // queue: Boost.Interprocess maps shared memory but has no single-writer record queue with hang-up detection
@@ -14,6 +18,7 @@
 // concurrent runs and test suites would have to coordinate.
 
 #include <poll.h>
+#include <sys/types.h>
 
 #include <atomic>
 #include <chrono>
@@ -114,6 +119,10 @@ class ShmPublisher {
     std::string endpoint;  // shm://NAME
     size_t initial_queue_bytes = 64 << 10;
     size_t max_queue_bytes = 64 << 20;
+    std::string secret;  // what a subscriber must send first
+    // subscribers (node names) a blocking Publish waits for; any other is best effort, and is dropped (its
+    // connection closed) when its queue stays full. Empty: every subscriber is waited for.
+    std::vector<std::string> members;
   };
   explicit ShmPublisher(const Options& options);  // throws std::runtime_error if the name is taken
   ~ShmPublisher();
@@ -134,10 +143,16 @@ class ShmPublisher {
   /// Subscribers (by node name) that get nothing until the next call, whatever they subscribed to; the next
   /// record of a topic they get says they missed its earlier ones on purpose (see Publish's `flags`).
   void SetMuted(const std::vector<std::string>& subscribers) { muted_ = subscribers; }
+  /// Connections refused (another user, no or another secret) and subscribers dropped (not members, not
+  /// reading) since the last call, one line each.
+  std::vector<std::string> TakeEvents();
+  uint64_t refused() const { return refused_; }
+  uint64_t dropped_subscribers() const { return dropped_subscribers_; }
 
  private:
   struct Link {
     int fd = -1;
+    pid_t pid = 0;
     std::unique_ptr<ShmConnectionPage> page;
     std::unique_ptr<ShmQueue> queue;
     std::vector<std::string> prefixes;
@@ -145,6 +160,15 @@ class ShmPublisher {
     bool dead = false;
     std::vector<std::string> muted_topics;  // it missed messages of these while muted: the next says so
   };
+  struct Pending {  // accepted, its secret not read yet
+    int fd;
+    pid_t pid;
+    SteadyClock::time_point deadline;
+  };
+  void Authenticate();
+  void Refuse(int fd, pid_t pid, const std::string& why);
+  bool IsMember(const Link& link) const;
+  void Drop(Link& link);
   void MarkHungUp();
   bool Wants(Link& link, std::string_view topic);
   bool Muted(const Link& link) const;
@@ -161,17 +185,25 @@ class ShmPublisher {
   std::vector<pollfd> poll_fds_;
   std::string stalled_;
   std::vector<std::string> muted_;
+  std::vector<Pending> pending_;
+  std::vector<std::string> events_;
+  std::vector<pid_t> refused_pids_;
+  uint64_t refused_ = 0, dropped_subscribers_ = 0;
 };
 
 /// The subscriber end: one connection per publisher endpoint, (re)connected as publishers come and go.
 class ShmSubscriber {
  public:
-  ShmSubscriber(const std::string& node, const std::vector<std::string>& endpoints);
+  ShmSubscriber(const std::string& node, const std::vector<std::string>& endpoints,
+                const std::string& secret);
   ~ShmSubscriber();
 
   void SetSubscriptions(const std::vector<std::string>& prefixes);
   /// Connects to publishers not connected yet (retrying every 10 ms) and reads what the sockets carry.
   void Maintain();
+  /// Publishers refused (another user) since the last call, one line each.
+  std::vector<std::string> TakeEvents();
+  uint64_t refused() const { return refused_; }
   /// Calls `record(data, size)` for queued records, at most `max_records`; returns how many.
   int Drain(int max_records, const std::function<void(const uint8_t*, size_t)>& record);
   bool HasData() const;
@@ -190,6 +222,7 @@ class ShmSubscriber {
     std::unique_ptr<ShmQueue> queue;
     std::deque<int> next_queue_fds;
     bool hung_up = false;
+    bool refusal_described = false;  // it was refused, and the log said so once
     SteadyClock::time_point next_attempt{};
   };
   void Connect(Link& link);
@@ -197,8 +230,11 @@ class ShmSubscriber {
   void Close(Link& link);
 
   std::string node_;
+  std::string secret_;
   std::vector<Link> links_;
   std::vector<std::string> prefixes_;
+  std::vector<std::string> events_;
+  uint64_t refused_ = 0;
 };
 
 }  // namespace iapsim::bridge::internal

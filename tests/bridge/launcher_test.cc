@@ -6,6 +6,7 @@
 #include <dirent.h>
 #include <gtest/gtest.h>
 #include <iapsim_msgs/UwbRanges.h>
+#include <sys/wait.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
@@ -18,8 +19,11 @@
 #include <sstream>
 #include <thread>
 #include <tuple>
+#include <zmq.hpp>
 
 #include "bridge/bag.h"
+#include "bridge/bus.h"
+#include "bridge/control_channel.h"
 #include "bridge/message_registry.h"
 #include "bridge/message_schema.h"
 
@@ -563,7 +567,13 @@ TEST_F(LauncherTest, AKilledRecordersBagIsReindexedByTheLauncher) {
   const std::string scenario = WriteScenario("loop", LoopScenario(60.0));
   const pid_t recorder = StartInBackground(scenario, {}, "recorder");
   if (recorder > 0) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1000));  // a few chunks written
+    // killed once three 768 KiB chunks are out, however fast the machine is
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    std::error_code error;
+    while (fs::file_size(dir_ / "run" / "run.bag", error) < 3 * 768 * 1024 &&
+           std::chrono::steady_clock::now() < give_up) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
     kill(recorder, SIGKILL);
   }
   const LaunchResult result = WaitForBackgroundRun();
@@ -584,6 +594,108 @@ TEST_F(LauncherTest, AKilledRecordersBagIsReindexedByTheLauncher) {
     return true;
   });
   EXPECT_GT(clocks, 1000u);
+}
+
+// The control channel takes only the run's processes with the run's secret: a peer with a wrong secret, one
+// without credentials and one with the secret under another name all try to end the run with "done"; each
+// is refused at the handshake, counted and logged, and the run goes to its end.
+TEST_F(LauncherTest, ForgedControlMessagesAreRefused) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(20.0));
+  ASSERT_GT(StartInBackground(scenario, {}, "physics"), 0);
+  const YAML::Node resolved = YAML::LoadFile((dir_ / "run" / "scenario.resolved.yaml").string());
+  const std::string endpoint = resolved["bus"]["control_endpoint"].as<std::string>();
+  const std::string secret = FileBytes((dir_ / "run" / "secret").string());
+  EXPECT_EQ(secret.size(), 64u);
+  EXPECT_EQ(fs::status(dir_ / "run" / "secret").permissions(),
+            fs::perms::owner_read | fs::perms::owner_write);
+  {
+    ControlClient wrong_secret(endpoint, "physics", std::string(64, '0'));
+    ControlClient wrong_name(endpoint, "intruder", secret);
+    wrong_secret.Send("ready");
+    wrong_secret.Send("done");
+    wrong_name.Send("done");
+    zmq::context_t context;
+    zmq::socket_t anonymous(context, zmq::socket_type::dealer);
+    anonymous.set(zmq::sockopt::routing_id, "physics");
+    anonymous.set(zmq::sockopt::linger, 1000);
+    anonymous.connect(endpoint);
+    anonymous.send(zmq::str_buffer("done"), zmq::send_flags::sndmore);
+    anonymous.send(zmq::str_buffer(""), zmq::send_flags::none);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  const LaunchResult result = WaitForBackgroundRun();
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  const auto metrics = Metrics(result);
+  EXPECT_DOUBLE_EQ(metrics["sim_time_s"].get<double>(), 20.0);  // not ended early
+  EXPECT_GE(metrics["control_refused"].get<uint64_t>(), 3u);
+  const std::string log = FileBytes(result.run_dir + "/log.txt");
+  EXPECT_NE(log.find("refused 'physics' without the run's secret"), std::string::npos) << log;
+  EXPECT_NE(log.find("refused 'intruder' is not a process of this run"), std::string::npos) << log;
+  EXPECT_NE(log.find("refused a peer without credentials"), std::string::npos) << log;
+}
+
+// Subscribers to a lockstep run's shared-memory bus from outside the run: one without the run's secret gets
+// nothing and is refused; one of another user is refused (when the test may change its user); one with the
+// secret that stops reading is dropped when its queue fills, and never holds the clock.
+TEST_F(LauncherTest, IntrudersOnTheBusAreRefusedOrDroppedAndTheRunGoesOn) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(20.0));
+  ASSERT_GT(StartInBackground(scenario, {"bus.shm_queue_max_mib=1"}, "physics"), 0);
+  const YAML::Node resolved = YAML::LoadFile((dir_ / "run" / "scenario.resolved.yaml").string());
+  const std::string secret = FileBytes((dir_ / "run" / "secret").string());
+  const auto subscriber = [&](const std::string& name, const std::string& with_secret) {
+    BusOptions options;
+    options.node_name = name;
+    options.bind_endpoint = "shm://iapsim-test-" + name + "-" + std::to_string(getpid());
+    options.peer_endpoints = {resolved["bus"]["endpoints"]["physics"].as<std::string>()};
+    options.secret = with_secret;
+    options.drop_policy = DropPolicy::kDropNewest;
+    return std::make_unique<Bus>(options);
+  };
+  const auto spin_for = [](Bus& bus, std::chrono::milliseconds duration) {
+    const auto end = std::chrono::steady_clock::now() + duration;
+    while (std::chrono::steady_clock::now() < end) bus.Spin(std::chrono::milliseconds(5));
+  };
+  uint64_t stolen = 0, read_then_stalled = 0;
+  auto thief = subscriber("thief", std::string(64, '0'));
+  thief->SubscribeRaw("", [&](const uint8_t*, size_t, const MessageInfo&) { ++stolen; });
+  auto stalled = subscriber("stalled", secret);
+  stalled->SubscribeRaw("", [&](const uint8_t*, size_t, const MessageInfo&) { ++read_then_stalled; });
+  const auto start = std::chrono::steady_clock::now();
+  while (read_then_stalled == 0 && std::chrono::steady_clock::now() - start < std::chrono::seconds(10)) {
+    stalled->Spin(std::chrono::milliseconds(5));
+  }
+  spin_for(*thief, std::chrono::milliseconds(300));
+  // another user's process, with the secret even: refused for its uid
+  bool other_user_tried = false;
+  if (geteuid() == 0) {
+    const pid_t child = fork();
+    if (child == 0) {
+      if (setgid(65534) != 0 || setuid(65534) != 0) _exit(3);
+      uint64_t received = 0;
+      auto other = subscriber("other_user", secret);
+      other->SubscribeRaw("", [&](const uint8_t*, size_t, const MessageInfo&) { ++received; });
+      spin_for(*other, std::chrono::milliseconds(300));
+      _exit(received == 0 ? 0 : 1);
+    }
+    int status = 0;
+    waitpid(child, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "another user's subscriber read the bus";
+    other_user_tried = true;
+  }
+  // `stalled` reads nothing more until the run has ended
+  const LaunchResult result = WaitForBackgroundRun();
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  EXPECT_EQ(stolen, 0u);
+  EXPECT_GT(read_then_stalled, 0u);
+  const auto metrics = Metrics(result);
+  EXPECT_DOUBLE_EQ(metrics["sim_time_s"].get<double>(), 20.0);
+  const auto& bus = metrics["processes"]["physics"]["bus"];
+  EXPECT_GE(bus["refused_peers"].get<uint64_t>(), other_user_tried ? 2u : 1u);
+  EXPECT_EQ(bus["dropped_subscribers"].get<uint64_t>(), 1u);
+  const std::string log = FileBytes(result.run_dir + "/logs/physics.log");
+  EXPECT_NE(log.find("that did not send the run's secret"), std::string::npos) << log;
+  EXPECT_NE(log.find("dropped subscriber 'stalled'"), std::string::npos) << log;
+  if (other_user_tried) EXPECT_NE(log.find("runs as another user (uid 65534)"), std::string::npos) << log;
 }
 
 TEST_F(LauncherTest, ReplayPlaysRecordedTopicsReStampedOntoSimTime) {
