@@ -39,6 +39,7 @@
 #include <iapsim_msgs/IapState.h>
 #include <iapsim_msgs/Setpoint.h>
 #include <nav_msgs/Odometry.h>
+#include <spdlog/spdlog.h>
 
 #include <cmath>
 #include <optional>
@@ -49,6 +50,7 @@
 #include "control/allocation.h"
 #include "control/commanded_reference.h"
 #include "control/control_config.h"
+#include "control/flight_envelope.h"
 #include "control/iap_controller.h"
 #include "control/sensor_link.h"
 #include "control/trajectory.h"
@@ -118,6 +120,13 @@ class ControlNode : public bridge::Process {
         wrench_controller_.emplace(vehicle_, config_, ReadDirectWrenchConfig(params), period_s_);
       }
     }
+    FlightEnvelopeConfig envelope;
+    if (params.Has("envelope")) {
+      bridge::YamlMap section = params.Map("envelope");
+      envelope = ReadFlightEnvelope(section);
+      section.Finish();
+    }
+    envelope_.emplace(envelope);
     if (mode_ == "track") {
       if (params.Has("trajectory") == params.Has("reference")) {
         params.Fail("trajectory",
@@ -128,6 +137,8 @@ class ControlNode : public bridge::Process {
         bridge::YamlMap trajectory = params.Map("trajectory");
         trajectory_ = ReadTrajectory(trajectory, context.scenario.file);
         trajectory.Finish();
+        const std::string outside = envelope_->Check(*trajectory_, context.scenario.duration_s, period_s_);
+        if (!outside.empty()) params.Fail("trajectory", outside + " (the control params' envelope)");
       } else {
         bridge::YamlMap reference = params.Map("reference");
         reference.Required("topic", &reference_topic_);
@@ -174,10 +185,27 @@ class ControlNode : public bridge::Process {
     }
     if (reference_topic_.empty()) return;
     const auto command = [this](const ros::Time& stamp, const geometry_msgs::Pose& pose, bool five_dof) {
-      if (!commanded_->Add(stamp.toSec(), bridge::FromMsg(pose.position), bridge::FromMsg(pose.orientation),
-                           five_dof)) {
-        ++rejected_references_;
+      FlightEnvelope::PoseCommand pose_W{bridge::FromMsg(pose.position), bridge::FromMsg(pose.orientation)};
+      // what is not even a pose is left to Add to reject; a pose goes through the envelope first
+      if (pose_W.p_WP_m.allFinite() && pose_W.q_WP.coeffs().allFinite() &&
+          std::abs(pose_W.q_WP.norm() - 1.0) <= 1e-3) {
+        const EnvelopeCounts before = envelope_->counts();
+        const auto admitted = envelope_->Admit(stamp.toSec(), pose_W, five_dof);
+        const EnvelopeCounts& after = envelope_->counts();
+        if ((after.clamped > before.clamped && after.clamped == 1) ||
+            (after.rejected > before.rejected && after.rejected == 1)) {
+          spdlog::warn(
+              "{}: a pose command at t = {:.3f} s outside the flight envelope ({}{}{}) was {} (the first "
+              "such; all are counted in the report)",
+              reference_topic_, stamp.toSec(),
+              after.outside_geofence > before.outside_geofence ? " geofence" : "",
+              after.too_fast > before.too_fast ? " speed" : "",
+              after.too_tilted > before.too_tilted ? " tilt" : "", admitted ? "clamped" : "rejected");
+        }
+        if (!admitted) return;
+        pose_W = *admitted;
       }
+      if (!commanded_->Add(stamp.toSec(), pose_W.p_WP_m, pose_W.q_WP, five_dof)) ++rejected_references_;
     };
     if (reference_type_ == "pose_stamped") {
       bus.Subscribe<geometry_msgs::PoseStamped>(
@@ -215,6 +243,10 @@ class ControlNode : public bridge::Process {
 
   void Finish(nlohmann::json* report) override {
     (*report)["commands_sent"] = commands_;
+    const EnvelopeCounts& envelope = envelope_->counts();
+    (*report)["envelope"] = {{"commands", envelope.commands}, {"clamped", envelope.clamped},
+                             {"rejected", envelope.rejected}, {"outside_geofence", envelope.outside_geofence},
+                             {"too_fast", envelope.too_fast}, {"too_tilted", envelope.too_tilted}};
     (*report)["fully_actuated"] = Allocation(vehicle_).fully_actuated();
     if (const IapController* controller = active_controller()) {
       (*report)["rejected_updates"] = controller->rejected_updates();
@@ -358,6 +390,7 @@ class ControlNode : public bridge::Process {
   std::string mode_;
   IapControllerConfig config_;
   std::unique_ptr<Trajectory> trajectory_;
+  std::optional<FlightEnvelope> envelope_;
   std::string reference_topic_;
   std::string reference_type_ = "pose_stamped";
   ReferenceShaping shaping_;

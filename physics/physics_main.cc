@@ -165,6 +165,7 @@ class PhysicsNode : public bridge::Process {
       entry["commands_received"] = vehicles_[v].commands;
       entry["commands_rejected"] = vehicles_[v].rejected + out.invalid_commands;
       entry["saturated_sub_aircraft_steps"] = out.saturated_steps;
+      entry["clamped_thrust_commands"] = out.clamped_thrust_commands;
       entry["mixer_cut_steps"] = {{"roll_pitch", out.mixer_cut_steps.roll_pitch},
                                   {"thrust", out.mixer_cut_steps.thrust},
                                   {"yaw", out.mixer_cut_steps.yaw}};

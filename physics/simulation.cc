@@ -178,11 +178,21 @@ bool Simulation::SetCommand(int v, int s, const SubAircraftSetpoint& setpoint) {
     return false;
   }
   SubAircraftSim& sub = vehicle.sub_aircraft.at(s);
+  SubAircraftSetpoint limited = setpoint;
+  const double max_N = sub.rotors->count() * sub.rotors->max_thrust_N();
+  if (setpoint.mode == SubAircraftSetpoint::Mode::kThrustTorque) {
+    if (setpoint.thrust_W_N.norm() > max_N) limited.thrust_W_N *= max_N / setpoint.thrust_W_N.norm();
+  } else {
+    limited.thrust_N = std::clamp(setpoint.thrust_N, 0.0, max_N);
+  }
+  if (limited.thrust_N != setpoint.thrust_N || limited.thrust_W_N != setpoint.thrust_W_N) {
+    ++vehicle.output.clamped_thrust_commands;
+  }
   if (sub.link.immediate()) {
-    sub.setpoint = setpoint;
+    sub.setpoint = limited;
     return true;
   }
-  sub.in_flight.emplace_back(sub.link.Arrival(step_count()), setpoint);
+  sub.in_flight.emplace_back(sub.link.Arrival(step_count()), limited);
   return true;
 }
 

@@ -198,6 +198,9 @@ struct VehicleOutput {
   Eigen::Vector3d wind_W_mps = Eigen::Vector3d::Zero();  // at the platform in the last step, gusts included
   Eigen::Vector3d air_force_W_N = Eigen::Vector3d::Zero();  // body and rotor drag, downwash on all its parts
   uint64_t invalid_commands = 0;  // rejected setpoints (NaN, infinite, non-unit quaternion)
+  // setpoints asking for more collective thrust than the rotors give, or less than none: clamped to that
+  // range, as a flight controller's normalised thrust is to [0, 1]
+  uint64_t clamped_thrust_commands = 0;
   uint64_t saturated_steps = 0;   // sub-aircraft steps where a mixer cut
   struct {
     uint64_t roll_pitch = 0, thrust = 0, yaw = 0;

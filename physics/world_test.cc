@@ -443,6 +443,37 @@ TEST(Simulation, RejectsInvalidCommandsAndHoldsTheLastOne) {
   EXPECT_TRUE(sim.world().body(sim.output(0).platform_body).p_WB_m.allFinite());
 }
 
+// A collective thrust beyond what the rotors give is full thrust, and a negative one none (a flight
+// controller's normalised thrust is clamped to [0, 1]): 1e160 N is flown like the rotors' maximum, not as
+// idle motors, and each is counted.
+TEST(Simulation, ClampsAThrustBeyondTheRotorsToTheirRange) {
+  const auto thrust_after = [](double thrust_N, uint64_t* clamped) {
+    SimulationConfig config;
+    config.world.ground = false;
+    config.world.gravity_mps2 = 0.0;
+    config.vehicles.push_back(Spec("two_line", Eigen::Vector3d::Zero()));
+    Simulation sim(config);
+    SubAircraftSetpoint setpoint;
+    setpoint.thrust_N = thrust_N;
+    for (int s = 0; s < 2; ++s) EXPECT_TRUE(sim.SetCommand(0, s, setpoint));
+    for (int k = 0; k < 300; ++k) sim.Step();
+    *clamped = sim.output(0).clamped_thrust_commands;
+    return sim.output(0).sub_aircraft[0].thrust_W_N.norm();
+  };
+  const model::RotorSet rotors = LoadShipped("two_line").sub_aircraft[0].rotors;
+  const double max_N = static_cast<double>(rotors.hub_S_m.size()) * rotors.MaxThrust_N();
+  uint64_t clamped = 0;
+  const double full = thrust_after(max_N, &clamped);
+  EXPECT_EQ(clamped, 0u);
+  EXPECT_GT(full, 0.9 * max_N);
+  EXPECT_DOUBLE_EQ(thrust_after(1e160, &clamped), full);
+  EXPECT_EQ(clamped, 2u);
+  const double none = thrust_after(0.0, &clamped);
+  EXPECT_DOUBLE_EQ(thrust_after(-5.0, &clamped), none);
+  EXPECT_EQ(clamped, 2u);
+  EXPECT_LT(none, 0.1 * max_N);
+}
+
 // The command link: thrust-torque setpoints show up unchanged in the sub-aircraft's thrust, so the step each
 // one takes effect can be read off. One new setpoint a step, each with its own thrust; returns, per setpoint,
 // how many steps after the one it was set for it first took effect (-1: overtaken within a step, never seen).

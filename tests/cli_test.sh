@@ -66,6 +66,24 @@ expect_exit 2 "reference.shaping.max_rate_dps: expected 3 positive numbers" "$ia
 expect_exit 2 "shaping.velocity_time_constant_s: unknown key" "$iapsim" replay "$work/cmd.csv" "${replay_square[@]}" \
   --topic /iap/pose_cmd --set processes.control.params.reference.shaping.velocity_time_constant_s=0.1
 
+# the flight envelope: a replayed pose command 1e6 m away (and one tilted 80 degrees) is refused and
+# counted, and the IAP holds where the last admitted command put it
+printf 't_s,x_m,y_m,z_m,qx,qy,qz,qw\n0.2,0,0,-2,0,0,0,1\n0.5,1000000,0,-2,0,0,0,1\n0.8,0,0,-2,0.6428,0,0,0.7660\n' \
+  > "$work/far.csv"
+"$iapsim" replay "$work/far.csv" --scenario "$src/configs/scenarios/three_square_replay.yaml" --duration 2 \
+  --topic /iap/pose_cmd --out "$work/far" --set processes.control.params.envelope.action=reject \
+  > "$work/far.out" 2>&1 || fail "envelope replay: $(cat "$work/far.out")"
+grep -q "outside the flight envelope ( geofence speed) was rejected" "$work/far/logs/control.log" ||
+  fail "no envelope warning: $(cat "$work/far/logs/control.log")"
+"$iapsim" export "$work/far/run.bag" --topic /iap/odom --format tum -o "$work/far.tum" 2> /dev/null
+/usr/bin/python3 -c "
+import json, sys
+e = json.load(open(sys.argv[1]))['processes']['control']['process']['envelope']
+assert e['commands'] == 3 and e['rejected'] == 2 and e['outside_geofence'] == 1 and e['too_tilted'] == 1, e
+xs = [abs(float(line.split()[1])) for line in open(sys.argv[2])]
+assert max(xs) < 0.1, max(xs)
+" "$work/far/metrics.json" "$work/far.tum" || fail "envelope: $(cat "$work/far/metrics.json" | head -c 600)"
+
 # bench record runs every variant of a scenario, prints the targets' verdicts and writes its figures
 "$iapsim" bench record --scenario "$src/configs/scenarios/bus_demo.yaml" --repeat 1 --json "$work/bench.json" \
   > "$work/bench.out"
