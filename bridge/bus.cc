@@ -12,6 +12,7 @@
 #include <zmq.hpp>
 
 #include "bridge/internal/shm_transport.h"
+#include "bridge/internal/zap_gate.h"
 #include "bridge/internal/zmq_poll.h"
 
 namespace iapsim::bridge {
@@ -23,6 +24,8 @@ constexpr uint8_t kWireVersion = 3;
 constexpr uint8_t kResyncFlag = 1;
 constexpr char kHelloTopic[] = "/iapsim/hello";
 constexpr char kConfirmTopic[] = "/iapsim/hello_confirm";
+// the largest message a ZeroMQ publisher takes from a peer: a subscription (a topic prefix)
+constexpr size_t kMaxSubscriptionBytes = 64 << 10;
 
 // meta frame: u8 version | u64 sequence | i64 sent_unix_ns | u16 n + datatype | 32 md5 chars | u16 n +
 // publisher
@@ -82,6 +85,7 @@ struct Bus::Impl {
   BusOptions options;
   BusStats* stats = nullptr;  // the Bus's
   zmq::context_t context{1};
+  std::optional<internal::ZapGate> zap;  // with a secret: the ZeroMQ publisher's authentication
   zmq::socket_t publisher{context, zmq::socket_type::xpub};
   zmq::socket_t subscriber{context, zmq::socket_type::sub};
   std::unique_ptr<internal::ShmPublisher> shm_publisher;    // when bound to shm://
@@ -248,9 +252,15 @@ struct Bus::Impl {
   // refusals and dropped subscribers, each logged once, and their counts
   void ReportConnectionEvents() {
     std::vector<std::string> events;
+    stats->refused_peers = 0;
+    if (zap) {
+      zap->Serve();
+      for (std::string& e : zap->TakeRefusals()) events.push_back("refused " + std::move(e));
+      stats->refused_peers = zap->refused();
+    }
     if (shm_publisher) {
-      events = shm_publisher->TakeEvents();
-      stats->refused_peers = shm_publisher->refused();
+      for (std::string& e : shm_publisher->TakeEvents()) events.push_back(std::move(e));
+      stats->refused_peers += shm_publisher->refused();
       stats->dropped_subscribers = shm_publisher->dropped_subscribers();
     }
     if (shm_subscriber) {
@@ -289,6 +299,34 @@ Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
   sub.set(zmq::sockopt::rcvhwm, options.receive_hwm);
   sub.set(zmq::sockopt::linger, 0);
   sub.set(zmq::sockopt::reconnect_ivl, 10);  // peers may bind after we connect: retry quickly
+  // what a peer may send: subscriptions to a publisher (a topic name), messages up to the largest queue to
+  // a subscriber; a larger one drops the connection instead of growing this process's memory
+  pub.set(zmq::sockopt::maxmsgsize, int64_t{kMaxSubscriptionBytes});
+  sub.set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(options.shm_max_queue_bytes));
+  if (!options.secret.empty()) {
+    // a run's ZeroMQ connections (ipc and tcp) use CURVE with the keys of its secret: a peer without them is
+    // refused at the handshake (and counted), and nothing travels in clear
+    try {
+      const internal::CurveKeys keys = internal::RunCurveKeys(options.secret);
+      impl_->zap.emplace(impl_->context,
+                         [client = keys.client_public_raw](const std::string& mechanism,
+                                                           const std::vector<std::string>& credentials) {
+                           if (mechanism != "CURVE" || credentials.size() != 1 || credentials[0] != client) {
+                             return std::string("a peer without the run's keys");
+                           }
+                           return std::string();
+                         });
+      pub.set(zmq::sockopt::curve_server, 1);
+      pub.set(zmq::sockopt::curve_secretkey, keys.server_secret);
+      pub.set(zmq::sockopt::zap_domain, "iapsim");
+      impl_->zap->Watch(pub);
+      sub.set(zmq::sockopt::curve_serverkey, keys.server_public);
+      sub.set(zmq::sockopt::curve_publickey, keys.client_public);
+      sub.set(zmq::sockopt::curve_secretkey, keys.client_secret);
+    } catch (const std::exception& e) {
+      throw BusError("node '" + options.node_name + "': " + e.what());
+    }
+  }
   try {
     if (internal::IsShmEndpoint(options.bind_endpoint)) {
       impl_->shm_publisher = std::make_unique<internal::ShmPublisher>(

@@ -698,6 +698,42 @@ TEST_F(LauncherTest, IntrudersOnTheBusAreRefusedOrDroppedAndTheRunGoesOn) {
   if (other_user_tried) EXPECT_NE(log.find("runs as another user (uid 65534)"), std::string::npos) << log;
 }
 
+// Over tcp the run's connections use CURVE with keys from its secret: a subscriber without them reads
+// nothing, 20 MB pushed into a publisher's port go nowhere, both are refused at the handshake, and the run
+// goes on.
+TEST_F(LauncherTest, ATcpRunRefusesPeersWithoutItsKeys) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(5.0));
+  ASSERT_GT(StartInBackground(scenario, {"bus.transport=tcp"}, "physics"), 0);
+  const YAML::Node resolved = YAML::LoadFile((dir_ / "run" / "scenario.resolved.yaml").string());
+  const std::string endpoint = resolved["bus"]["endpoints"]["physics"].as<std::string>();
+  uint64_t stolen = 0;
+  {
+    zmq::context_t context;
+    zmq::socket_t thief(context, zmq::socket_type::sub);
+    thief.set(zmq::sockopt::subscribe, "");
+    thief.connect(endpoint);
+    zmq::socket_t pusher(context, zmq::socket_type::dealer);
+    pusher.set(zmq::sockopt::linger, 0);
+    pusher.connect(endpoint);
+    const std::string big(20 << 20, 'x');
+    pusher.send(zmq::buffer(big), zmq::send_flags::dontwait);
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
+    zmq::message_t message;
+    while (std::chrono::steady_clock::now() < end) {
+      if (thief.recv(message, zmq::recv_flags::dontwait)) ++stolen;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+  const LaunchResult result = WaitForBackgroundRun();
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  EXPECT_EQ(stolen, 0u);
+  const auto metrics = Metrics(result);
+  EXPECT_DOUBLE_EQ(metrics["sim_time_s"].get<double>(), 5.0);
+  EXPECT_GE(metrics["processes"]["physics"]["bus"]["refused_peers"].get<uint64_t>(), 2u);
+  const std::string log = FileBytes(result.run_dir + "/logs/physics.log");
+  EXPECT_NE(log.find("refused a peer without credentials"), std::string::npos) << log;
+}
+
 TEST_F(LauncherTest, ReplayPlaysRecordedTopicsReStampedOntoSimTime) {
   const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
   const LaunchResult recorded = Run(scenario, "recorded");

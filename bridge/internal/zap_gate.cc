@@ -1,0 +1,123 @@
+#include "bridge/internal/zap_gate.h"
+
+#include <atomic>
+#include <cstring>
+#include <stdexcept>
+
+namespace iapsim::bridge::internal {
+namespace {
+
+// ZeroMQ's fixed endpoint for the ZAP handler of a context
+constexpr char kZapEndpoint[] = "inproc://zeromq.zap.01";
+
+std::vector<std::string> ReadFrames(zmq::socket_t& socket) {
+  std::vector<std::string> frames;
+  zmq::message_t frame;
+  do {
+    if (!socket.recv(frame, zmq::recv_flags::dontwait)) break;
+    frames.emplace_back(static_cast<const char*>(frame.data()), frame.size());
+  } while (frame.more());
+  return frames;
+}
+
+std::string Z85(const uint8_t key[32]) {
+  char text[41];
+  if (zmq_z85_encode(text, key, 32) == nullptr) throw std::invalid_argument("z85 encoding failed");
+  return text;
+}
+
+}  // namespace
+
+ZapGate::ZapGate(zmq::context_t& context, Check check)
+    : zap_(context, zmq::socket_type::rep),
+      monitor_(context, zmq::socket_type::pair),
+      check_(std::move(check)) {
+  zap_.set(zmq::sockopt::linger, 0);
+  zap_.bind(kZapEndpoint);
+}
+
+void ZapGate::Watch(zmq::socket_t& socket) {
+  // one monitor endpoint per gate (inproc names are per context, but a process may have several contexts)
+  static std::atomic<int> next{0};
+  const std::string endpoint = "inproc://iapsim-zap-monitor-" + std::to_string(next++);
+  if (zmq_socket_monitor(socket.handle(), endpoint.c_str(),
+                         ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |
+                             ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) != 0) {
+    throw std::runtime_error(std::string("cannot monitor a socket: ") + zmq_strerror(zmq_errno()));
+  }
+  monitor_.connect(endpoint);
+}
+
+void ZapGate::Serve() {
+  while (true) {
+    const std::vector<std::string> request = ReadFrames(zap_);
+    if (request.empty()) break;
+    // version, request id, domain, address, routing id, mechanism, credentials...
+    std::string refusal = "a malformed authentication request";
+    if (request.size() >= 6) {
+      refusal = check_(request[5], std::vector<std::string>(request.begin() + 6, request.end()));
+      if (!refusal.empty() && !request[3].empty()) refusal += " (from " + request[3] + ")";
+    }
+    if (!refusal.empty()) Describe(refusal);
+    const std::string reply[] = {"1.0",
+                                 request.size() > 1 ? request[1] : "",
+                                 refusal.empty() ? "200" : "400",
+                                 refusal.empty() ? "OK" : refusal,
+                                 "",
+                                 ""};
+    for (size_t i = 0; i < std::size(reply); ++i) {
+      zap_.send(zmq::buffer(reply[i]),
+                i + 1 < std::size(reply) ? zmq::send_flags::sndmore : zmq::send_flags::none);
+    }
+  }
+  while (true) {
+    const std::vector<std::string> event = ReadFrames(monitor_);
+    if (event.empty()) break;
+    if (event[0].size() < 2) continue;
+    uint16_t id;
+    std::memcpy(&id, event[0].data(), 2);
+    ++refused_;
+    // a refused check was described by Serve; the others never reached it
+    if (id != ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) {
+      Describe("a peer without credentials (another security mechanism, or a broken handshake)");
+    }
+  }
+}
+
+void ZapGate::Describe(const std::string& refusal) {
+  if (described_.insert(refusal).second) refusals_.push_back(refusal);
+}
+
+std::vector<std::string> ZapGate::TakeRefusals() {
+  std::vector<std::string> refusals;
+  refusals.swap(refusals_);
+  return refusals;
+}
+
+CurveKeys RunCurveKeys(const std::string& secret) {
+  if (secret.size() != 64 || secret.find_first_not_of("0123456789abcdef") != std::string::npos) {
+    throw std::invalid_argument("the run's secret is not 64 hex digits");
+  }
+  uint8_t server_secret[32], client_secret[32];
+  for (size_t i = 0; i < 32; ++i) {
+    server_secret[i] = static_cast<uint8_t>(std::stoi(secret.substr(2 * i, 2), nullptr, 16));
+    // another key from the same random bytes: uniform still, and unknown without the secret
+    client_secret[i] = server_secret[i] ^ 0x5c;
+  }
+  CurveKeys keys;
+  keys.server_secret = Z85(server_secret);
+  keys.client_secret = Z85(client_secret);
+  char public_text[41];
+  if (zmq_curve_public(public_text, keys.server_secret.c_str()) != 0) {
+    throw std::invalid_argument("CURVE is not available in this libzmq");
+  }
+  keys.server_public = public_text;
+  zmq_curve_public(public_text, keys.client_secret.c_str());
+  keys.client_public = public_text;
+  uint8_t raw[32];
+  zmq_z85_decode(raw, keys.client_public.c_str());
+  keys.client_public_raw.assign(reinterpret_cast<const char*>(raw), 32);
+  return keys;
+}
+
+}  // namespace iapsim::bridge::internal
