@@ -474,6 +474,17 @@ TEST(Simulation, ClampsAThrustBeyondTheRotorsToTheirRange) {
   EXPECT_LT(none, 0.1 * max_N);
 }
 
+// The command link tests label setpoint k (from 0) with its thrust: 5 N plus k tenths of a millinewton, above
+// the idle rotors' thrust, and 20,000 of them within what the rotors give (so none is clamped).
+constexpr double kLabelFirst_N = 5.0, kLabelStep_N = 1e-4;
+double LabelThrust_N(int64_t k) { return kLabelFirst_N + static_cast<double>(k) * kLabelStep_N; }
+// the label of the setpoint in effect: -1 before the first arrives
+int64_t LabelOf(const VehicleOutput& out) {
+  const double thrust_N = -out.sub_aircraft[0].thrust_W_N.z();
+  if (thrust_N < kLabelFirst_N - kLabelStep_N / 2) return -1;
+  return std::lround((thrust_N - kLabelFirst_N) / kLabelStep_N);
+}
+
 // The command link: thrust-torque setpoints show up unchanged in the sub-aircraft's thrust, so the step each
 // one takes effect can be read off. One new setpoint a step, each with its own thrust; returns, per setpoint,
 // how many steps after the one it was set for it first took effect (-1: overtaken within a step, never seen).
@@ -492,11 +503,11 @@ std::vector<int64_t> LinkDelays(const CommandLink& link, uint64_t seed, int setp
   int64_t last_seen = -1;
   for (int k = 0; k < setpoints + 100; ++k) {
     if (k < setpoints) {
-      setpoint.thrust_W_N = Eigen::Vector3d(0.0, 0.0, -(k + 1.0));
+      setpoint.thrust_W_N = Eigen::Vector3d(0.0, 0.0, -LabelThrust_N(k));
       EXPECT_TRUE(sim.SetCommand(0, 0, setpoint));
     }
     sim.Step();
-    const int64_t seen = std::lround(-sim.output(0).sub_aircraft[0].thrust_W_N.z()) - 1;
+    const int64_t seen = LabelOf(sim.output(0));
     EXPECT_GE(seen, last_seen) << "setpoints overtook each other at step " << k;
     if (seen > last_seen) delays[static_cast<size_t>(seen)] = k - seen;
     last_seen = seen;
@@ -549,11 +560,11 @@ TEST(CommandLink, JitterIsUniformBoundedInOrderAndSeeded) {
   int64_t in_effect = 0;  // the number of the setpoint in effect: 1, 2, ... (0 before the first arrives)
   for (int k = 0; k < sent * 5 + 20; ++k) {
     if (k % 5 == 0 && k / 5 < sent) {
-      setpoint.thrust_W_N = Eigen::Vector3d(0.0, 0.0, -(k / 5 + 1.0));
+      setpoint.thrust_W_N = Eigen::Vector3d(0.0, 0.0, -LabelThrust_N(k / 5));
       sim.SetCommand(0, 0, setpoint);
     }
     sim.Step();
-    const int64_t number = std::lround(-sim.output(0).sub_aircraft[0].thrust_W_N.z());
+    const int64_t number = LabelOf(sim.output(0)) + 1;
     if (number == in_effect) continue;
     ASSERT_EQ(number, in_effect + 1) << "a setpoint was skipped or overtaken at step " << k;
     ++counts[static_cast<size_t>(k - 5 * (number - 1) - 10)];
