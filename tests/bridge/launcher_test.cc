@@ -102,6 +102,11 @@ class LauncherTest : public ::testing::Test {
     }
     return 0;
   }
+  // the background run's resolved scenario (endpoints) and secret, as a process of the run reads them
+  YAML::Node BackgroundScenario() const {
+    return YAML::LoadFile((dir_ / "run" / "scenario.resolved.yaml").string());
+  }
+  std::string BackgroundSecret() const { return FileBytes((dir_ / "run" / "secret").string()); }
   LaunchResult WaitForBackgroundRun() {
     background_.join();
     return background_result_;
@@ -602,9 +607,9 @@ TEST_F(LauncherTest, AKilledRecordersBagIsReindexedByTheLauncher) {
 TEST_F(LauncherTest, ForgedControlMessagesAreRefused) {
   const std::string scenario = WriteScenario("loop", LoopScenario(20.0));
   ASSERT_GT(StartInBackground(scenario, {}, "physics"), 0);
-  const YAML::Node resolved = YAML::LoadFile((dir_ / "run" / "scenario.resolved.yaml").string());
+  const YAML::Node resolved = BackgroundScenario();
   const std::string endpoint = resolved["bus"]["control_endpoint"].as<std::string>();
-  const std::string secret = FileBytes((dir_ / "run" / "secret").string());
+  const std::string secret = BackgroundSecret();
   EXPECT_EQ(secret.size(), 64u);
   EXPECT_EQ(fs::status(dir_ / "run" / "secret").permissions(),
             fs::perms::owner_read | fs::perms::owner_write);
@@ -640,8 +645,8 @@ TEST_F(LauncherTest, ForgedControlMessagesAreRefused) {
 TEST_F(LauncherTest, IntrudersOnTheBusAreRefusedOrDroppedAndTheRunGoesOn) {
   const std::string scenario = WriteScenario("loop", LoopScenario(20.0));
   ASSERT_GT(StartInBackground(scenario, {"bus.shm_queue_max_mib=1"}, "physics"), 0);
-  const YAML::Node resolved = YAML::LoadFile((dir_ / "run" / "scenario.resolved.yaml").string());
-  const std::string secret = FileBytes((dir_ / "run" / "secret").string());
+  const YAML::Node resolved = BackgroundScenario();
+  const std::string secret = BackgroundSecret();
   const auto subscriber = [&](const std::string& name, const std::string& with_secret) {
     BusOptions options;
     options.node_name = name;
@@ -704,7 +709,7 @@ TEST_F(LauncherTest, IntrudersOnTheBusAreRefusedOrDroppedAndTheRunGoesOn) {
 TEST_F(LauncherTest, ATcpRunRefusesPeersWithoutItsKeys) {
   const std::string scenario = WriteScenario("loop", LoopScenario(5.0));
   ASSERT_GT(StartInBackground(scenario, {"bus.transport=tcp"}, "physics"), 0);
-  const YAML::Node resolved = YAML::LoadFile((dir_ / "run" / "scenario.resolved.yaml").string());
+  const YAML::Node resolved = BackgroundScenario();
   const std::string endpoint = resolved["bus"]["endpoints"]["physics"].as<std::string>();
   uint64_t stolen = 0;
   {
