@@ -19,6 +19,9 @@ packages=(
   # rendering: OSMesa (llvmpipe), EGL and GL headers, libdeflate for PNG encoding, decoding and video through OpenCV
   libosmesa6-dev libegl-dev libgl-dev libdeflate-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev
+  # visual-inertial odometry (vio/): Lucas-Kanade tracking and fundamental-matrix RANSAC; Ceres for the
+  # sliding-window estimator
+  libopencv-video-dev libopencv-calib3d-dev libceres-dev
   # learning (rl/): HDF5 for the offline data sets (D4RL's layout), h5py to read them in Python, pybind11
   # for the environments' Python module
   libhdf5-dev python3-h5py pybind11-dev python3-dev
