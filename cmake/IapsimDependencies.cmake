@@ -26,6 +26,8 @@ set(IAPSIM_PYTHON /usr/bin/python3 CACHE FILEPATH "Python with python3-genmsg an
 set(PYBIND11_FINDPYTHON ON)
 set(Python_EXECUTABLE ${IAPSIM_PYTHON})
 find_package(pybind11 CONFIG REQUIRED)
+# Ceres 2.1 (SuiteSparse): the visual-inertial sliding window (vio/factors.h, included only inside vio/)
+find_package(Ceres REQUIRED)
 # libtorch 1.13 (CPU): the learned policies (rl/torchscript_policy.h)
 find_package(Torch REQUIRED)
 

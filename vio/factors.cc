@@ -1,0 +1,217 @@
+#include "vio/factors.h"
+
+#include <stdexcept>
+
+#include "vio/so3.h"
+
+namespace iapsim::vio {
+namespace {
+
+template <int Rows, int Cols>
+using RowMajorMap = Eigen::Map<Eigen::Matrix<double, Rows, Cols, Eigen::RowMajor>>;
+
+Eigen::Vector3d Position(const double* pose) { return Eigen::Vector3d(pose[0], pose[1], pose[2]); }
+Eigen::Quaterniond Rotation(const double* pose) {
+  return Eigen::Quaterniond(pose[6], pose[3], pose[4], pose[5]);
+}
+
+// d(x/z, y/z)/dP at P, times the whitening.
+Eigen::Matrix<double, 2, 3> ProjectionJacobian(const Eigen::Vector3d& P, double sqrt_information) {
+  Eigen::Matrix<double, 2, 3> J;
+  const double inv_z = 1.0 / P.z();
+  J << inv_z, 0.0, -P.x() * inv_z * inv_z, 0.0, inv_z, -P.y() * inv_z * inv_z;
+  return sqrt_information * J;
+}
+
+}  // namespace
+
+bool PoseManifold::Plus(const double* x, const double* delta, double* x_plus_delta) const {
+  const Eigen::Vector3d p = Position(x) + Eigen::Vector3d(delta[0], delta[1], delta[2]);
+  const Eigen::Quaterniond q =
+      (Rotation(x) * ExpQuaternion(Eigen::Vector3d(delta[3], delta[4], delta[5]))).normalized();
+  Eigen::Map<Eigen::Vector3d>{x_plus_delta} = p;
+  Eigen::Map<Eigen::Vector4d>{x_plus_delta + 3} = q.coeffs();
+  return true;
+}
+
+bool PoseManifold::PlusJacobian(const double*, double* jacobian) const {
+  RowMajorMap<kPoseSize, kPoseTangentSize> J(jacobian);
+  J.setZero();
+  J.topRows<kPoseTangentSize>().setIdentity();
+  return true;
+}
+
+bool PoseManifold::Minus(const double* y, const double* x, double* y_minus_x) const {
+  Eigen::Map<Eigen::Vector3d>{y_minus_x} = Position(y) - Position(x);
+  Eigen::Map<Eigen::Vector3d>{y_minus_x + 3} = Log(Eigen::Quaterniond(Rotation(x).conjugate() * Rotation(y)));
+  return true;
+}
+
+bool PoseManifold::MinusJacobian(const double*, double* jacobian) const {
+  RowMajorMap<kPoseTangentSize, kPoseSize> J(jacobian);
+  J.setZero();
+  J.leftCols<kPoseTangentSize>().setIdentity();
+  return true;
+}
+
+Eigen::Isometry3d PoseFromBlock(const double* pose) {
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.linear() = Rotation(pose).normalized().toRotationMatrix();
+  X.translation() = Position(pose);
+  return X;
+}
+
+void PoseToBlock(const Eigen::Isometry3d& X_WI, double* pose) {
+  Eigen::Map<Eigen::Vector3d>{pose} = X_WI.translation();
+  Eigen::Map<Eigen::Vector4d>{pose + 3} = Eigen::Quaterniond(X_WI.linear()).normalized().coeffs();
+}
+
+ImuFactor::ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration, const sensors::ImuNoise& noise,
+                     const Eigen::Vector3d& g_W_mps2)
+    : preintegration_(std::move(preintegration)), g_W_mps2_(g_W_mps2) {
+  Eigen::Matrix<double, 15, 15> covariance = Eigen::Matrix<double, 15, 15>::Zero();
+  covariance.topLeftCorner<9, 9>() = preintegration_->covariance();
+  const double dt = preintegration_->dt_s();
+  covariance.block<3, 3>(9, 9).diagonal().setConstant(noise.gyroscope_random_walk *
+                                                      noise.gyroscope_random_walk * dt);
+  covariance.block<3, 3>(12, 12).diagonal().setConstant(noise.accelerometer_random_walk *
+                                                        noise.accelerometer_random_walk * dt);
+  // Whitening W with Wᵀ W = Σ⁻¹: for Σ = L Lᵀ (Cholesky), W = L⁻¹.
+  const Eigen::LLT<Eigen::Matrix<double, 15, 15>> cholesky(covariance);
+  if (!covariance.allFinite() || cholesky.info() != Eigen::Success) {
+    throw std::invalid_argument(
+        "IMU factor: the preintegrated covariance is not positive definite (every noise density and random "
+        "walk "
+        "must be > 0, and the interval longer than 0)");
+  }
+  sqrt_information_ = cholesky.matrixL().solve(Eigen::Matrix<double, 15, 15>::Identity());
+}
+
+bool ImuFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const ImuPreintegration& pre = *preintegration_;
+  const NavState state_i{Position(parameters[0]), Rotation(parameters[0]), Eigen::Vector3d(parameters[1])};
+  const NavState state_j{Position(parameters[2]), Rotation(parameters[2]), Eigen::Vector3d(parameters[3])};
+  const ImuBiases biases_i{Eigen::Vector3d(parameters[1] + 3), Eigen::Vector3d(parameters[1] + 6)};
+  const Eigen::Vector3d bg_j(parameters[3] + 3), ba_j(parameters[3] + 6);
+
+  Eigen::Matrix<double, 15, 1> r;
+  r.head<9>() = pre.Residual(state_i, state_j, biases_i, g_W_mps2_);
+  r.segment<3>(9) = bg_j - biases_i.gyroscope_radps;
+  r.tail<3>() = ba_j - biases_i.accelerometer_mps2;
+  Eigen::Map<Eigen::Matrix<double, 15, 1>>{residuals} = sqrt_information_ * r;
+  if (jacobians == nullptr) return true;
+
+  const double dt = pre.dt_s();
+  const Eigen::Matrix3d R_i = state_i.q_WI.toRotationMatrix(), R_j = state_j.q_WI.toRotationMatrix();
+  const Eigen::Matrix3d R_iT = R_i.transpose();
+  const Eigen::Vector3d r_R = r.head<3>();
+  const Eigen::Matrix3d Jr_inv = RightJacobianInverse(r_R);
+  const Eigen::Vector3d y_v = R_iT * (state_j.v_WI_W_mps - state_i.v_WI_W_mps - g_W_mps2_ * dt);
+  const Eigen::Vector3d y_p =
+      R_iT * (state_j.p_WI_m - state_i.p_WI_m - state_i.v_WI_W_mps * dt - 0.5 * g_W_mps2_ * dt * dt);
+  const Matrix93d& J_bg = pre.jacobian_gyroscope_bias();
+  const Matrix93d& J_ba = pre.jacobian_accelerometer_bias();
+  const Eigen::Vector3d d_bg = biases_i.gyroscope_radps - pre.linearisation_biases().gyroscope_radps;
+  const Eigen::Matrix3d J_R_bg = J_bg.topRows<3>();
+
+  if (jacobians[0] != nullptr) {
+    Eigen::Matrix<double, 15, kPoseSize> J = Eigen::Matrix<double, 15, kPoseSize>::Zero();
+    J.block<3, 3>(0, 3) = -Jr_inv * R_j.transpose() * R_i;
+    J.block<3, 3>(3, 3) = Skew(y_v);
+    J.block<3, 3>(6, 0) = -R_iT;
+    J.block<3, 3>(6, 3) = Skew(y_p);
+    RowMajorMap<15, kPoseSize>{jacobians[0]} = sqrt_information_ * J;
+  }
+  if (jacobians[1] != nullptr) {
+    Eigen::Matrix<double, 15, kSpeedBiasSize> J = Eigen::Matrix<double, 15, kSpeedBiasSize>::Zero();
+    J.block<3, 3>(0, 3) = -Jr_inv * Exp(r_R).transpose() * RightJacobian(J_R_bg * d_bg) * J_R_bg;
+    J.block<3, 3>(3, 0) = -R_iT;
+    J.block<3, 3>(3, 3) = -J_bg.middleRows<3>(3);
+    J.block<3, 3>(3, 6) = -J_ba.middleRows<3>(3);
+    J.block<3, 3>(6, 0) = -R_iT * dt;
+    J.block<3, 3>(6, 3) = -J_bg.bottomRows<3>();
+    J.block<3, 3>(6, 6) = -J_ba.bottomRows<3>();
+    J.block<3, 3>(9, 3) = -Eigen::Matrix3d::Identity();
+    J.block<3, 3>(12, 6) = -Eigen::Matrix3d::Identity();
+    RowMajorMap<15, kSpeedBiasSize>{jacobians[1]} = sqrt_information_ * J;
+  }
+  if (jacobians[2] != nullptr) {
+    Eigen::Matrix<double, 15, kPoseSize> J = Eigen::Matrix<double, 15, kPoseSize>::Zero();
+    J.block<3, 3>(0, 3) = Jr_inv;
+    J.block<3, 3>(6, 0) = R_iT;
+    RowMajorMap<15, kPoseSize>{jacobians[2]} = sqrt_information_ * J;
+  }
+  if (jacobians[3] != nullptr) {
+    Eigen::Matrix<double, 15, kSpeedBiasSize> J = Eigen::Matrix<double, 15, kSpeedBiasSize>::Zero();
+    J.block<3, 3>(3, 0) = R_iT;
+    J.block<3, 3>(9, 3) = Eigen::Matrix3d::Identity();
+    J.block<3, 3>(12, 6) = Eigen::Matrix3d::Identity();
+    RowMajorMap<15, kSpeedBiasSize>{jacobians[3]} = sqrt_information_ * J;
+  }
+  return true;
+}
+
+ReprojectionFactor::ReprojectionFactor(const Eigen::Vector2d& anchor, const Eigen::Vector2d& target,
+                                       const Eigen::Isometry3d& X_IA, const Eigen::Isometry3d& X_IT,
+                                       double sqrt_information)
+    : anchor_ray_(anchor.x(), anchor.y(), 1.0),
+      target_(target),
+      X_IA_(X_IA),
+      X_IT_(X_IT),
+      sqrt_information_(sqrt_information) {}
+
+bool ReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
+                                  double** jacobians) const {
+  const Eigen::Matrix3d R_i = Rotation(parameters[0]).toRotationMatrix();
+  const Eigen::Matrix3d R_j = Rotation(parameters[1]).toRotationMatrix();
+  const Eigen::Vector3d p_i = Position(parameters[0]), p_j = Position(parameters[1]);
+  const double inverse_depth = parameters[2][0];
+
+  const Eigen::Vector3d P_A = anchor_ray_ / inverse_depth;
+  const Eigen::Vector3d P_Ii = X_IA_ * P_A;
+  const Eigen::Vector3d P_W = R_i * P_Ii + p_i;
+  const Eigen::Vector3d P_Ij = R_j.transpose() * (P_W - p_j);
+  const Eigen::Vector3d P_T = X_IT_.inverse() * P_Ij;
+  Eigen::Map<Eigen::Vector2d>{residuals} = sqrt_information_ * (P_T.head<2>() / P_T.z() - target_);
+  if (jacobians == nullptr) return true;
+
+  const Eigen::Matrix<double, 2, 3> reduce = ProjectionJacobian(P_T, sqrt_information_);
+  const Eigen::Matrix3d R_TI_R_jW = X_IT_.linear().transpose() * R_j.transpose();
+  if (jacobians[0] != nullptr) {
+    RowMajorMap<2, kPoseSize> J(jacobians[0]);
+    J.setZero();
+    J.leftCols<3>() = reduce * R_TI_R_jW;
+    J.middleCols<3>(3) = reduce * R_TI_R_jW * R_i * -Skew(P_Ii);
+  }
+  if (jacobians[1] != nullptr) {
+    RowMajorMap<2, kPoseSize> J(jacobians[1]);
+    J.setZero();
+    J.leftCols<3>() = -reduce * R_TI_R_jW;
+    J.middleCols<3>(3) = reduce * X_IT_.linear().transpose() * Skew(P_Ij);
+  }
+  if (jacobians[2] != nullptr) {
+    Eigen::Map<Eigen::Vector2d>{jacobians[2]} =
+        reduce * R_TI_R_jW * R_i * X_IA_.linear() * (-anchor_ray_ / (inverse_depth * inverse_depth));
+  }
+  return true;
+}
+
+StereoFactor::StereoFactor(const Eigen::Vector2d& left, const Eigen::Vector2d& right, double baseline_m,
+                           double sqrt_information)
+    : left_ray_(left.x(), left.y(), 1.0),
+      right_(right),
+      baseline_m_(baseline_m),
+      sqrt_information_(sqrt_information) {}
+
+bool StereoFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const double inverse_depth = parameters[0][0];
+  const Eigen::Vector3d P_R = left_ray_ / inverse_depth - Eigen::Vector3d(baseline_m_, 0.0, 0.0);
+  Eigen::Map<Eigen::Vector2d>{residuals} = sqrt_information_ * (P_R.head<2>() / P_R.z() - right_);
+  if (jacobians != nullptr && jacobians[0] != nullptr) {
+    Eigen::Map<Eigen::Vector2d>{jacobians[0]} =
+        ProjectionJacobian(P_R, sqrt_information_) * (-left_ray_ / (inverse_depth * inverse_depth));
+  }
+  return true;
+}
+
+}  // namespace iapsim::vio

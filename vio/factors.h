@@ -1,0 +1,93 @@
+#pragma once
+// The sliding window's residuals for Ceres, with analytic Jacobians (the layout of VINS-Mono/VINS-Fusion,
+// Qin et al., the seed's [52]; the IMU terms of Forster et al. 2017, §VI). Parameter blocks:
+//   pose        7: p_WI (3), q_WI as Eigen stores it (x, y, z, w); PoseManifold, tangent [δp, δθ] with
+//                  q ← q Exp(δθ) (right perturbation, as in vio/so3.h)
+//   speed_bias  9: v_WI_W (3), gyroscope bias (3), accelerometer bias (3)
+//   inverse depth 1: λ = 1/z of a feature in the left optical frame of the keyframe that first saw it
+// A pose Jacobian is written "lifted": its first six columns are the derivative with respect to the tangent
+// [δp, δθ] and the seventh is zero, and PoseManifold's PlusJacobian is [I₆; 0], so Ceres's product of the
+// two is the tangent Jacobian. (The derivative with respect to the quaternion's four coordinates is never
+// needed, and this saves forming it.)
+//
+// Only vio/ includes this header (Ceres is heavy); the estimator's public header hides it.
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <memory>
+
+#include "vio/imu_preintegration.h"
+
+namespace iapsim::vio {
+
+constexpr int kPoseSize = 7;
+constexpr int kPoseTangentSize = 6;
+constexpr int kSpeedBiasSize = 9;
+
+class PoseManifold : public ceres::Manifold {
+ public:
+  int AmbientSize() const override { return kPoseSize; }
+  int TangentSize() const override { return kPoseTangentSize; }
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override;
+  bool PlusJacobian(const double* x, double* jacobian) const override;
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override;
+  bool MinusJacobian(const double* x, double* jacobian) const override;
+};
+
+/// The pose block's values as a NavState without velocity, and back.
+Eigen::Isometry3d PoseFromBlock(const double* pose);
+void PoseToBlock(const Eigen::Isometry3d& X_WI, double* pose);
+
+/// The IMU between keyframes i and j: 15 residuals [r_R, r_v, r_p, r_bg, r_ba] (imu_preintegration.h's
+/// first nine, then the bias changes), whitened by the preintegration's covariance and the biases' random
+/// walk over Δt. Parameters: pose_i, speed_bias_i, pose_j, speed_bias_j. When the optimiser moves the
+/// biases more than a first-order correction can follow, call Repropagate on the preintegration (the
+/// estimator does) and build the factor again.
+class ImuFactor : public ceres::SizedCostFunction<15, kPoseSize, kSpeedBiasSize, kPoseSize, kSpeedBiasSize> {
+ public:
+  ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration, const sensors::ImuNoise& noise,
+            const Eigen::Vector3d& g_W_mps2);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  std::shared_ptr<const ImuPreintegration> preintegration_;
+  Eigen::Vector3d g_W_mps2_;
+  Eigen::Matrix<double, 15, 15> sqrt_information_;
+};
+
+/// A feature first seen at normalised coordinates `anchor` by camera A of keyframe i (inverse depth λ along
+/// A's ray) and observed at `target` by camera T of keyframe j ≠ i: the 2 residuals are the normalised
+/// reprojection error, scaled by `sqrt_information` (focal length / pixel sigma, so that a residual of 1 is
+/// one standard deviation of pixel noise). X_IA, X_IT place the cameras in the IMU frame (the left eye, or
+/// the right one for a stereo observation in another keyframe). Parameters: pose_i, pose_j, λ.
+class ReprojectionFactor : public ceres::SizedCostFunction<2, kPoseSize, kPoseSize, 1> {
+ public:
+  ReprojectionFactor(const Eigen::Vector2d& anchor, const Eigen::Vector2d& target,
+                     const Eigen::Isometry3d& X_IA, const Eigen::Isometry3d& X_IT, double sqrt_information);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  Eigen::Vector3d anchor_ray_;
+  Eigen::Vector2d target_;
+  Eigen::Isometry3d X_IA_, X_IT_;
+  double sqrt_information_;
+};
+
+/// The same feature in the right eye of its anchor keyframe: the rig alone relates the two eyes, so the
+/// only parameter is λ (the right eye sits `baseline_m` along x of the left). 2 residuals as above.
+class StereoFactor : public ceres::SizedCostFunction<2, 1> {
+ public:
+  StereoFactor(const Eigen::Vector2d& left, const Eigen::Vector2d& right, double baseline_m,
+               double sqrt_information);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  Eigen::Vector3d left_ray_;
+  Eigen::Vector2d right_;
+  double baseline_m_;
+  double sqrt_information_;
+};
+
+}  // namespace iapsim::vio
