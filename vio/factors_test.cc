@@ -9,59 +9,24 @@
 
 #include "vio/so3.h"
 #include "vio/stereo_rig.h"
+#include "vio/testing/synthetic.h"
 
 namespace iapsim::vio {
 namespace {
 
-const Eigen::Vector3d kGravity_W(0.0, 0.0, 9.81);
-
-// A smooth known motion (as in imu_preintegration_test.cc): R = Exp(θ(t)), p(t) of sines.
-Eigen::Vector3d Theta(double t) {
-  return {0.3 * std::sin(1.1 * t), 0.2 * std::sin(0.7 * t + 0.5), 0.8 * std::sin(0.5 * t)};
-}
-Eigen::Vector3d ThetaDot(double t) {
-  return {0.33 * std::cos(1.1 * t), 0.14 * std::cos(0.7 * t + 0.5), 0.4 * std::cos(0.5 * t)};
-}
-sensors::BodyKinematics Kinematics(double t) {
-  sensors::BodyKinematics k;
-  k.q_WB = ExpQuaternion(Theta(t));
-  k.w_WB_B_radps = RightJacobian(Theta(t)) * ThetaDot(t);
-  k.a_WB_W_mps2 = {-1.62 * std::sin(0.9 * t), -0.54 * std::cos(0.6 * t), -0.845 * std::sin(1.3 * t)};
-  return k;
-}
-NavState State(double t) {
-  return {{2.0 * std::sin(0.9 * t), 1.5 * std::cos(0.6 * t), -2.0 + 0.5 * std::sin(1.3 * t)},
-          ExpQuaternion(Theta(t)),
-          {1.8 * std::cos(0.9 * t), -0.9 * std::sin(0.6 * t), 0.65 * std::cos(1.3 * t)}};
-}
-sensors::ImuSample Sample(double t) {
-  return sensors::IdealImuSample(Kinematics(t), Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(),
-                                 9.81);
-}
+using testing::KnownMotion;
+using testing::RightEye;
+using testing::SeedRig;
+const Eigen::Vector3d kGravity_W = testing::GravityW();
 
 std::shared_ptr<ImuPreintegration> Preintegrate(double t0, double t1, const ImuBiases& biases) {
   const double rate_hz = 200.0;
   const int samples = static_cast<int>(std::lround((t1 - t0) * rate_hz));
-  auto preintegration = std::make_shared<ImuPreintegration>(Sample(t0), biases, sensors::TableViNoise());
+  auto preintegration =
+      std::make_shared<ImuPreintegration>(KnownMotion::Sample(t0), biases, sensors::TableViNoise());
   for (int k = 1; k <= samples; ++k)
-    preintegration->Integrate((t1 - t0) / samples, Sample(t0 + k * (t1 - t0) / samples));
+    preintegration->Integrate((t1 - t0) / samples, KnownMotion::Sample(t0 + k * (t1 - t0) / samples));
   return preintegration;
-}
-
-// The seed's stereo rig (§VI-G): 640×480, 90° field of view, 12 cm baseline, 19.8 cm ahead of the IMU.
-StereoRig SeedRig() {
-  render::CameraConfig camera;
-  camera.name = "stereo";
-  camera.mount.kind = render::CameraMount::Kind::kBody;
-  camera.mount.body = "iap/sub1";
-  camera.mount.X_PF.translation() = Eigen::Vector3d(0.198, 0.0, 0.0);
-  camera.camera.intrinsics = render::CameraIntrinsics::FromHorizontalFov(640, 480, M_PI / 2.0);
-  camera.baseline_m = 0.12;
-  return StereoRig::FromCamera(camera, Eigen::Isometry3d::Identity());
-}
-
-Eigen::Isometry3d RightEye(const StereoRig& rig) {
-  return rig.X_IL * Eigen::Translation3d(rig.baseline_m, 0.0, 0.0);
 }
 
 // The analytic Jacobians of `factor` against Ceres's numeric differentiation of its residual with
@@ -148,7 +113,7 @@ TEST(FactorsTest, ImuFactorJacobiansMatchNumericDifferentiation) {
   const ImuBiases linearised{{0.01, -0.02, 0.015}, {0.1, -0.05, 0.2}};
   const auto preintegration = Preintegrate(0.3, 0.55, linearised);
   const ImuFactor factor(preintegration, sensors::TableViNoise(), kGravity_W);
-  const NavState i = State(0.3), j = State(0.55);
+  const NavState i = KnownMotion::State(0.3), j = KnownMotion::State(0.55);
   // Away from the measurement (by millimetres: whitened, that is already hundreds of standard deviations),
   // and with biases moved from the linearisation point.
   const std::vector<double> sb_i{
@@ -174,7 +139,7 @@ TEST(FactorsTest, ImuFactorJacobiansMatchNumericDifferentiation) {
 TEST(FactorsTest, ReprojectionAndStereoFactorJacobiansMatchNumericDifferentiation) {
   const StereoRig rig = SeedRig();
   const double sqrt_information = rig.intrinsics.fx / 1.5;
-  const NavState i = State(0.2), j = State(0.7);
+  const NavState i = KnownMotion::State(0.2), j = KnownMotion::State(0.7);
   const ReprojectionFactor temporal(Eigen::Vector2d(0.1, -0.2), Eigen::Vector2d(0.15, -0.18), rig.X_IL,
                                     rig.X_IL, sqrt_information);
   const ReprojectionFactor right_eye(Eigen::Vector2d(-0.3, 0.1), Eigen::Vector2d(-0.33, 0.12), rig.X_IL,
@@ -212,7 +177,7 @@ TEST(FactorsTest, IMUAndStereoFactorsRecoverAKnownTrajectory) {
   std::vector<std::vector<double>> speed_biases(keyframes, std::vector<double>(kSpeedBiasSize, 0.0));
   std::vector<Eigen::Isometry3d> truth(keyframes);
   for (int k = 0; k < keyframes; ++k) {
-    const NavState s = State(k * gap_s);
+    const NavState s = KnownMotion::State(k * gap_s);
     truth[k].linear() = s.q_WI.toRotationMatrix();
     truth[k].translation() = s.p_WI_m;
     Eigen::Isometry3d start = truth[k];
@@ -280,7 +245,8 @@ TEST(FactorsTest, IMUAndStereoFactorsRecoverAKnownTrajectory) {
     EXPECT_LT((X.translation() - truth[k].translation()).norm(), 1e-3) << "keyframe " << k;
     EXPECT_LT(Log(Eigen::Matrix3d(truth[k].linear().transpose() * X.linear())).norm(), 0.01 * M_PI / 180.0)
         << "keyframe " << k;
-    EXPECT_LT((Eigen::Vector3d(speed_biases[k].data()) - State(k * gap_s).v_WI_W_mps).norm(), 2e-3)
+    EXPECT_LT((Eigen::Vector3d(speed_biases[k].data()) - KnownMotion::State(k * gap_s).v_WI_W_mps).norm(),
+              2e-3)
         << "keyframe " << k;
   }
 }

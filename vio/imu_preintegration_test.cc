@@ -6,50 +6,20 @@
 #include <vector>
 
 #include "vio/so3.h"
+#include "vio/testing/synthetic.h"
 
 namespace iapsim::vio {
 namespace {
 
-const Eigen::Vector3d kGravity_W(0.0, 0.0, 9.81);
-
-// A smooth known motion: R(t) = Exp(θ(t)), so ω_B = J_r(θ) θ̇, and p(t) of sines.
-struct Trajectory {
-  static Eigen::Vector3d Theta(double t) {
-    return {0.3 * std::sin(1.1 * t), 0.2 * std::sin(0.7 * t + 0.5), 0.8 * std::sin(0.5 * t)};
-  }
-  static Eigen::Vector3d ThetaDot(double t) {
-    return {0.33 * std::cos(1.1 * t), 0.14 * std::cos(0.7 * t + 0.5), 0.4 * std::cos(0.5 * t)};
-  }
-  static Eigen::Vector3d Position(double t) {
-    return {2.0 * std::sin(0.9 * t), 1.5 * std::cos(0.6 * t), -2.0 + 0.5 * std::sin(1.3 * t)};
-  }
-  static Eigen::Vector3d Velocity(double t) {
-    return {1.8 * std::cos(0.9 * t), -0.9 * std::sin(0.6 * t), 0.65 * std::cos(1.3 * t)};
-  }
-  static Eigen::Vector3d Acceleration(double t) {
-    return {-1.62 * std::sin(0.9 * t), -0.54 * std::cos(0.6 * t), -0.845 * std::sin(1.3 * t)};
-  }
-  static sensors::BodyKinematics Kinematics(double t) {
-    sensors::BodyKinematics k;
-    k.q_WB = ExpQuaternion(Theta(t));
-    k.w_WB_B_radps = RightJacobian(Theta(t)) * ThetaDot(t);
-    k.a_WB_W_mps2 = Acceleration(t);
-    return k;
-  }
-  static NavState State(double t) { return {Position(t), ExpQuaternion(Theta(t)), Velocity(t)}; }
-  // The IMU at the body origin, through the sensors library's own model of a reading.
-  static sensors::ImuSample Sample(double t) {
-    return sensors::IdealImuSample(Kinematics(t), Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(),
-                                   kGravity_W.z());
-  }
-};
+using testing::KnownMotion;
+const Eigen::Vector3d kGravity_W = testing::GravityW();
 
 ImuPreintegration Integrate(double t0, double duration_s, double rate_hz, const ImuBiases& biases = {},
                             const sensors::ImuNoise& noise = sensors::TableViNoise()) {
   const int samples = static_cast<int>(std::lround(duration_s * rate_hz));
   const double dt = duration_s / samples;
-  ImuPreintegration preintegration(Trajectory::Sample(t0), biases, noise);
-  for (int k = 1; k <= samples; ++k) preintegration.Integrate(dt, Trajectory::Sample(t0 + k * dt));
+  ImuPreintegration preintegration(KnownMotion::Sample(t0), biases, noise);
+  for (int k = 1; k <= samples; ++k) preintegration.Integrate(dt, KnownMotion::Sample(t0 + k * dt));
   return preintegration;
 }
 
@@ -60,8 +30,8 @@ struct PredictionError {
 PredictionError ErrorOverOneSecond(double rate_hz) {
   const double t0 = 0.3, t1 = 1.3;
   const ImuPreintegration preintegration = Integrate(t0, t1 - t0, rate_hz);
-  const NavState predicted = preintegration.Predict(Trajectory::State(t0), {}, kGravity_W);
-  const NavState truth = Trajectory::State(t1);
+  const NavState predicted = preintegration.Predict(KnownMotion::State(t0), {}, kGravity_W);
+  const NavState truth = KnownMotion::State(t1);
   return {Log(Eigen::Quaterniond(truth.q_WI.conjugate() * predicted.q_WI)).norm(),
           (predicted.v_WI_W_mps - truth.v_WI_W_mps).norm(), (predicted.p_WI_m - truth.p_WI_m).norm()};
 }
@@ -83,7 +53,7 @@ TEST(ImuPreintegrationTest, PredictsAKnownMotionAndConvergesAtSecondOrder) {
 TEST(ImuPreintegrationTest, ResidualIsZeroOnItsOwnPredictionAndSeesAnOffset) {
   const ImuBiases biases{{0.01, -0.02, 0.005}, {0.1, 0.05, -0.2}};
   const ImuPreintegration preintegration = Integrate(0.0, 0.25, 200.0, biases);
-  const NavState state_i = Trajectory::State(0.0);
+  const NavState state_i = KnownMotion::State(0.0);
   NavState state_j = preintegration.Predict(state_i, biases, kGravity_W);
   EXPECT_LT(preintegration.Residual(state_i, state_j, biases, kGravity_W).norm(), 1e-12);
   state_j.p_WI_m += state_i.q_WI * Eigen::Vector3d(0.01, 0.0, 0.0);
@@ -156,9 +126,9 @@ TEST(ImuPreintegrationTest, CovarianceMatchesAMonteCarloOfTheNoisyImu) {
   const int trials = 2000;
   for (int trial = 0; trial < trials; ++trial) {
     sensors::ImuModel imu(config, 1000 + trial);
-    ImuPreintegration preintegration(imu.Sample(Trajectory::Kinematics(t0), dt), {}, config.noise);
+    ImuPreintegration preintegration(imu.Sample(KnownMotion::Kinematics(t0), dt), {}, config.noise);
     for (int k = 1; k <= samples; ++k)
-      preintegration.Integrate(dt, imu.Sample(Trajectory::Kinematics(t0 + k * dt), dt));
+      preintegration.Integrate(dt, imu.Sample(KnownMotion::Kinematics(t0 + k * dt), dt));
     const Vector9d e = DeltaError(nominal, preintegration.delta());
     empirical += e * e.transpose() / trials;
     predicted = preintegration.covariance();

@@ -11,22 +11,14 @@
 
 #include "render/renderer.h"
 #include "render/scene_config.h"
+#include "vio/testing/synthetic.h"
 
 namespace iapsim::vio {
 namespace {
 
-// The seed's stereo camera (§VI-G) on a body, rendered in the textured yard of Fig. 17 (a)-2; the renderer's
-// depth image is the ground truth every check compares against.
-render::CameraConfig SeedStereoCamera() {
-  render::CameraConfig camera;
-  camera.name = "stereo";
-  camera.mount.kind = render::CameraMount::Kind::kBody;
-  camera.mount.body = "iap/sub1";
-  camera.mount.X_PF.translation() = Eigen::Vector3d(0.198, 0.0, 0.0);
-  camera.camera.intrinsics = render::CameraIntrinsics::FromHorizontalFov(640, 480, M_PI / 2.0);
-  camera.baseline_m = 0.12;
-  return camera;
-}
+// The seed's stereo camera (§VI-G), rendered in the textured yard of Fig. 17 (a)-2; the renderer's depth
+// image is the ground truth every check compares against.
+using testing::SeedStereoCamera;
 
 struct StereoShot {
   Eigen::Isometry3d X_WL;  // left optical frame
@@ -63,7 +55,7 @@ class StereoTrackerTest : public ::testing::Test {
     return shot;
   }
 
-  static StereoRig Rig() { return StereoRig::FromCamera(SeedStereoCamera(), Eigen::Isometry3d::Identity()); }
+  static StereoRig Rig() { return testing::SeedRig(); }
 
   static double Median(std::vector<double> values) {
     std::sort(values.begin(), values.end());
