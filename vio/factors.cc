@@ -214,4 +214,42 @@ bool StereoFactor::Evaluate(double const* const* parameters, double* residuals, 
   return true;
 }
 
+StatePriorFactor::StatePriorFactor(const NavState& state, const ImuBiases& biases,
+                                   const StatePriorSigmas& sigmas)
+    : state_(state), biases_(biases) {
+  inverse_sigma_ << Eigen::Vector3d::Constant(sigmas.position_m), sigmas.tilt_rad, sigmas.tilt_rad,
+      sigmas.yaw_rad, Eigen::Vector3d::Constant(sigmas.velocity_mps),
+      Eigen::Vector3d::Constant(sigmas.gyroscope_bias_radps),
+      Eigen::Vector3d::Constant(sigmas.accelerometer_bias_mps2);
+  if (!(inverse_sigma_.array() > 0.0).all())
+    throw std::invalid_argument("state prior: every sigma must be > 0");
+  inverse_sigma_ = inverse_sigma_.cwiseInverse();
+}
+
+bool StatePriorFactor::Evaluate(double const* const* parameters, double* residuals,
+                                double** jacobians) const {
+  const Eigen::Matrix3d R = Rotation(parameters[0]).toRotationMatrix();
+  Eigen::Matrix<double, 15, 1> r;
+  r.head<3>() = Position(parameters[0]) - state_.p_WI_m;
+  r.segment<3>(3) = Log(Eigen::Matrix3d(R * state_.q_WI.toRotationMatrix().transpose()));
+  r.segment<3>(6) = Eigen::Vector3d(parameters[1]) - state_.v_WI_W_mps;
+  r.segment<3>(9) = Eigen::Vector3d(parameters[1] + 3) - biases_.gyroscope_radps;
+  r.tail<3>() = Eigen::Vector3d(parameters[1] + 6) - biases_.accelerometer_mps2;
+  Eigen::Map<Eigen::Matrix<double, 15, 1>>{residuals} = inverse_sigma_.cwiseProduct(r);
+  if (jacobians == nullptr) return true;
+  if (jacobians[0] != nullptr) {
+    // Log(R Exp(δθ) R₀ᵀ) = Log(Exp(R δθ) Exp(r)) ≈ r + J_l⁻¹(r) R δθ, with J_l⁻¹(r) = J_r⁻¹(r)ᵀ.
+    Eigen::Matrix<double, 15, kPoseSize> J = Eigen::Matrix<double, 15, kPoseSize>::Zero();
+    J.block<3, 3>(0, 0).setIdentity();
+    J.block<3, 3>(3, 3) = RightJacobianInverse(r.segment<3>(3)).transpose() * R;
+    RowMajorMap<15, kPoseSize>{jacobians[0]} = inverse_sigma_.asDiagonal() * J;
+  }
+  if (jacobians[1] != nullptr) {
+    Eigen::Matrix<double, 15, kSpeedBiasSize> J = Eigen::Matrix<double, 15, kSpeedBiasSize>::Zero();
+    J.bottomRows<9>().setIdentity();
+    RowMajorMap<15, kSpeedBiasSize>{jacobians[1]} = inverse_sigma_.asDiagonal() * J;
+  }
+  return true;
+}
+
 }  // namespace iapsim::vio

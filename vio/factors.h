@@ -90,4 +90,18 @@ class StereoFactor : public ceres::SizedCostFunction<2, 1> {
   double sqrt_information_;
 };
 
+/// A prior on one state (the first of the window, when nothing has been marginalised yet): 15 residuals
+/// [p − p₀, Log(R R₀ᵀ), v − v₀, b_g − b_g₀, b_a − b_a₀], each divided by its standard deviation. The rotation
+/// error is in W's axes, so that its z sigma is the yaw's. Parameters: pose, speed_bias.
+class StatePriorFactor : public ceres::SizedCostFunction<15, kPoseSize, kSpeedBiasSize> {
+ public:
+  StatePriorFactor(const NavState& state, const ImuBiases& biases, const StatePriorSigmas& sigmas);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  NavState state_;
+  ImuBiases biases_;
+  Eigen::Matrix<double, 15, 1> inverse_sigma_;
+};
+
 }  // namespace iapsim::vio

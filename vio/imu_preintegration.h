@@ -16,20 +16,9 @@
 #include <vector>
 
 #include "sensors/imu.h"
+#include "vio/state.h"
 
 namespace iapsim::vio {
-
-struct ImuBiases {
-  Eigen::Vector3d gyroscope_radps = Eigen::Vector3d::Zero();
-  Eigen::Vector3d accelerometer_mps2 = Eigen::Vector3d::Zero();
-};
-
-/// The IMU's pose and velocity in W at one instant.
-struct NavState {
-  Eigen::Vector3d p_WI_m = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond q_WI = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d v_WI_W_mps = Eigen::Vector3d::Zero();
-};
 
 /// A relative motion (ΔR, Δv, Δp) in the frame of I at t_i.
 struct ImuDelta {

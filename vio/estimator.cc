@@ -1,0 +1,584 @@
+#include "vio/estimator.h"
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include "vio/factors.h"
+#include "vio/marginalisation.h"
+#include "vio/so3.h"
+
+namespace iapsim::vio {
+namespace {
+
+struct WindowFrame {
+  std::uint64_t serial = 0;
+  double t_s = 0.0;
+  std::array<double, kPoseSize> pose{};
+  std::array<double, kSpeedBiasSize> speed_bias{};
+  std::shared_ptr<ImuPreintegration> imu;  ///< from the previous window frame; null for the first
+  bool keyframe = false;
+
+  NavState State() const {
+    const Eigen::Isometry3d X = PoseFromBlock(pose.data());
+    return {X.translation(), Eigen::Quaterniond(X.linear()), Eigen::Vector3d(speed_bias.data())};
+  }
+  ImuBiases Biases() const {
+    return {Eigen::Vector3d(speed_bias.data() + 3), Eigen::Vector3d(speed_bias.data() + 6)};
+  }
+  void Set(const NavState& state, const ImuBiases& biases) {
+    Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+    X.linear() = state.q_WI.normalized().toRotationMatrix();
+    X.translation() = state.p_WI_m;
+    PoseToBlock(X, pose.data());
+    Eigen::Map<Eigen::Vector3d>{speed_bias.data()} = state.v_WI_W_mps;
+    Eigen::Map<Eigen::Vector3d>{speed_bias.data() + 3} = biases.gyroscope_radps;
+    Eigen::Map<Eigen::Vector3d>{speed_bias.data() + 6} = biases.accelerometer_mps2;
+  }
+};
+
+// A feature in normalised coordinates of the left eye and, when matched, of the right.
+struct Observation {
+  Eigen::Vector2d left;
+  std::optional<Eigen::Vector2d> right;
+};
+
+struct Track {
+  std::map<std::uint64_t, Observation> observations;  ///< by frame serial; the first is the anchor
+  double inverse_depth = 0.0;                         ///< 1/z in the anchor's left eye, when has_depth
+  bool has_depth = false;
+};
+
+struct InitialPrior {
+  std::uint64_t serial = 0;
+  NavState state;
+  ImuBiases biases;
+  StatePriorSigmas sigmas;
+};
+
+// A residual block to add to a problem or to marginalise.
+struct Residual {
+  std::unique_ptr<ceres::CostFunction> cost;
+  const ceres::LossFunction* loss = nullptr;
+  std::vector<double*> parameters;
+};
+
+double Milliseconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+}
+
+// Bias changes beyond which the first-order correction is replaced by integrating again (VINS-Fusion's
+// repropagation thresholds are of this order).
+constexpr double kRepropagateGyroscope_radps = 0.01;
+constexpr double kRepropagateAccelerometer_mps2 = 0.1;
+
+}  // namespace
+
+struct Estimator::Impl {
+  StereoRig rig;
+  Eigen::Isometry3d X_IR = Eigen::Isometry3d::Identity();
+  EstimatorOptions options;
+  Eigen::Vector3d g_W;
+  std::unique_ptr<ceres::LossFunction> loss;
+  PoseManifold pose_manifold;
+
+  std::deque<std::unique_ptr<WindowFrame>> window;
+  std::map<std::uint64_t, Track> tracks;
+  std::set<std::uint64_t> rejected;  ///< outlier feature ids, never used again
+  std::shared_ptr<const MarginalPrior> prior;
+  std::optional<InitialPrior> initial_prior;
+  std::optional<std::pair<NavState, ImuBiases>> given_initial_state;
+
+  std::deque<std::pair<double, sensors::ImuSample>> imu;
+  std::shared_ptr<ImuPreintegration> since_keyframe;  ///< from the newest keyframe to the last frame
+  double last_frame_t_s = -std::numeric_limits<double>::infinity();
+  std::uint64_t next_serial = 0;
+  int frames_since_start = 0;
+  std::optional<Estimate> last_good;
+  EstimatorStatistics statistics;
+
+  // --- IMU ---------------------------------------------------------------------------------------------
+  sensors::ImuSample SampleAt(double t) const {
+    if (t <= imu.front().first) return imu.front().second;
+    for (std::size_t k = 1; k < imu.size(); ++k) {
+      if (imu[k].first < t) continue;
+      const double a = (t - imu[k - 1].first) / (imu[k].first - imu[k - 1].first);
+      sensors::ImuSample s;
+      s.f_I_mps2 = (1.0 - a) * imu[k - 1].second.f_I_mps2 + a * imu[k].second.f_I_mps2;
+      s.w_I_radps = (1.0 - a) * imu[k - 1].second.w_I_radps + a * imu[k].second.w_I_radps;
+      return s;
+    }
+    return imu.back().second;  // held past the last sample
+  }
+
+  // Integrates the samples strictly between from_t and to_t, then the sample at to_t.
+  void IntegrateTo(ImuPreintegration* pre, double from_t, double to_t) const {
+    double t = from_t;
+    for (const auto& [sample_t, sample] : imu) {
+      if (sample_t <= from_t || sample_t >= to_t) continue;
+      pre->Integrate(sample_t - t, sample);
+      t = sample_t;
+    }
+    pre->Integrate(to_t - t, SampleAt(to_t));
+  }
+
+  void PruneImu() {
+    // Keep one sample at or before the last frame, for interpolation.
+    while (imu.size() > 1 && imu[1].first <= last_frame_t_s) imu.pop_front();
+  }
+
+  // --- features ----------------------------------------------------------------------------------------
+  void AddObservations(std::uint64_t serial, const StereoFrame& frame) {
+    for (const TrackedFeature& f : frame.features) {
+      if (rejected.count(f.id) != 0) continue;
+      Observation observation{rig.Normalised(f.uv_left), std::nullopt};
+      if (f.uv_right) observation.right = rig.Normalised(*f.uv_right);
+      tracks[f.id].observations[serial] = observation;
+    }
+  }
+
+  std::map<std::uint64_t, WindowFrame*> FramesBySerial() const {
+    std::map<std::uint64_t, WindowFrame*> frames;
+    for (const auto& frame : window) frames[frame->serial] = frame.get();
+    return frames;
+  }
+
+  bool DepthInRange(double depth_m) const {
+    return depth_m >= options.min_depth_m && depth_m <= options.max_depth_m;
+  }
+
+  // Depth from the anchor's own stereo pair, else from the anchor and the latest other view by linear
+  // triangulation at the current poses.
+  void Triangulate() {
+    const auto frames = FramesBySerial();
+    for (auto& [id, track] : tracks) {
+      if (track.has_depth) continue;
+      const auto& [anchor_serial, anchor] = *track.observations.begin();
+      if (anchor.right) {
+        const double disparity = anchor.left.x() - anchor.right->x();  // x_l − x_r = b / z
+        if (disparity > 0.0 && DepthInRange(rig.baseline_m / disparity)) {
+          track.inverse_depth = disparity / rig.baseline_m;
+          track.has_depth = true;
+          continue;
+        }
+      }
+      if (track.observations.size() < 2) continue;
+      const auto& [other_serial, other] = *track.observations.rbegin();
+      const Eigen::Isometry3d X_WA = PoseFromBlock(frames.at(anchor_serial)->pose.data()) * rig.X_IL;
+      const Eigen::Isometry3d X_WO = PoseFromBlock(frames.at(other_serial)->pose.data()) * rig.X_IL;
+      const Eigen::Isometry3d X_OA = X_WO.inverse() * X_WA;
+      // z·ray_A expressed in O must be along ray_O: [ray_O]× (R z ray_A + t) = 0, least squares in z.
+      const Eigen::Vector3d ray_A(anchor.left.x(), anchor.left.y(), 1.0),
+          ray_O(other.left.x(), other.left.y(), 1.0);
+      const Eigen::Vector3d a = Skew(ray_O) * X_OA.linear() * ray_A;
+      const Eigen::Vector3d b = -Skew(ray_O) * X_OA.translation();
+      if (a.norm() < 1e-3) continue;  // too little parallax
+      const double depth_m = a.dot(b) / a.squaredNorm();
+      if (!DepthInRange(depth_m)) continue;
+      track.inverse_depth = 1.0 / depth_m;
+      track.has_depth = true;
+    }
+  }
+
+  bool Usable(const Track& track, const std::map<std::uint64_t, WindowFrame*>& frames) const {
+    return track.has_depth && track.observations.size() >= 2 &&
+           frames.count(track.observations.begin()->first) != 0;
+  }
+
+  double SqrtInformation() const { return rig.intrinsics.fx / options.pixel_sigma_px; }
+
+  // The visual residuals of one track.
+  void VisualResiduals(Track& track, const std::map<std::uint64_t, WindowFrame*>& frames,
+                       std::vector<Residual>* out) const {
+    const auto& [anchor_serial, anchor] = *track.observations.begin();
+    double* anchor_pose = frames.at(anchor_serial)->pose.data();
+    if (anchor.right) {
+      out->push_back(
+          {std::make_unique<StereoFactor>(anchor.left, *anchor.right, rig.baseline_m, SqrtInformation()),
+           loss.get(),
+           {&track.inverse_depth}});
+    }
+    for (const auto& [serial, observation] : track.observations) {
+      if (serial == anchor_serial) continue;
+      double* pose = frames.at(serial)->pose.data();
+      out->push_back({std::make_unique<ReprojectionFactor>(anchor.left, observation.left, rig.X_IL, rig.X_IL,
+                                                           SqrtInformation()),
+                      loss.get(),
+                      {anchor_pose, pose, &track.inverse_depth}});
+      if (observation.right) {
+        out->push_back({std::make_unique<ReprojectionFactor>(anchor.left, *observation.right, rig.X_IL, X_IR,
+                                                             SqrtInformation()),
+                        loss.get(),
+                        {anchor_pose, pose, &track.inverse_depth}});
+      }
+    }
+  }
+
+  // Every residual of the window; with `oldest_only`, those that touch the oldest frame (for
+  // marginalisation).
+  std::vector<Residual> Residuals(bool oldest_only) {
+    std::vector<Residual> residuals;
+    const auto frames = FramesBySerial();
+    const WindowFrame& oldest = *window.front();
+    if (prior) {
+      std::vector<double*> blocks;
+      for (const ParameterInfo& block : prior->blocks) blocks.push_back(block.values);
+      residuals.push_back({std::make_unique<MarginalPriorFactor>(prior), nullptr, blocks});
+    }
+    if (initial_prior && frames.count(initial_prior->serial) != 0 &&
+        (!oldest_only || initial_prior->serial == oldest.serial)) {
+      WindowFrame* frame = frames.at(initial_prior->serial);
+      residuals.push_back({std::make_unique<StatePriorFactor>(initial_prior->state, initial_prior->biases,
+                                                              initial_prior->sigmas),
+                           nullptr,
+                           {frame->pose.data(), frame->speed_bias.data()}});
+    }
+    const std::size_t imu_factors = oldest_only ? std::min<std::size_t>(window.size(), 2) : window.size();
+    for (std::size_t i = 1; i < imu_factors; ++i) {
+      WindowFrame& a = *window[i - 1];
+      WindowFrame& b = *window[i];
+      residuals.push_back({std::make_unique<ImuFactor>(b.imu, options.imu_noise, g_W),
+                           nullptr,
+                           {a.pose.data(), a.speed_bias.data(), b.pose.data(), b.speed_bias.data()}});
+    }
+    for (auto& [id, track] : tracks) {
+      if (!Usable(track, frames)) continue;
+      if (oldest_only && track.observations.begin()->first != oldest.serial) continue;
+      VisualResiduals(track, frames, &residuals);
+    }
+    return residuals;
+  }
+
+  void RepropagateWhereBiasesMoved() {
+    for (std::size_t i = 1; i < window.size(); ++i) {
+      ImuPreintegration& pre = *window[i]->imu;
+      const ImuBiases biases = window[i - 1]->Biases();
+      if ((biases.gyroscope_radps - pre.linearisation_biases().gyroscope_radps).norm() >
+              kRepropagateGyroscope_radps ||
+          (biases.accelerometer_mps2 - pre.linearisation_biases().accelerometer_mps2).norm() >
+              kRepropagateAccelerometer_mps2) {
+        pre.Repropagate(biases);
+      }
+    }
+  }
+
+  // Features of the newest frame that take part in the solve.
+  int NewestFeatures() const {
+    const auto frames = FramesBySerial();
+    int used = 0;
+    for (const auto& [id, track] : tracks)
+      used += Usable(track, frames) && track.observations.count(window.back()->serial) != 0;
+    return used;
+  }
+
+  void Solve() {
+    const auto start = std::chrono::steady_clock::now();
+    RepropagateWhereBiasesMoved();
+    std::vector<Residual> residuals = Residuals(false);
+    ceres::Problem::Options problem_options;
+    problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    for (const auto& frame : window) {
+      problem.AddParameterBlock(frame->pose.data(), kPoseSize, &pose_manifold);
+      problem.AddParameterBlock(frame->speed_bias.data(), kSpeedBiasSize);
+    }
+    for (Residual& r : residuals) {
+      problem.AddResidualBlock(r.cost.get(), const_cast<ceres::LossFunction*>(r.loss), r.parameters);
+    }
+    ceres::Solver::Options solver;
+    solver.linear_solver_type = ceres::DENSE_SCHUR;
+    solver.trust_region_strategy_type = ceres::DOGLEG;
+    solver.max_num_iterations = options.max_iterations;
+    solver.num_threads = 1;
+    solver.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &problem, &summary);
+    statistics.solve_ms += Milliseconds(start);
+  }
+
+  // Drops features whose depth left the valid range or whose mean reprojection error is above outlier_px.
+  // Returns how many of the newest frame's features it dropped.
+  int RejectOutliers() {
+    const auto frames = FramesBySerial();
+    int dropped_in_newest = 0;
+    for (auto it = tracks.begin(); it != tracks.end();) {
+      Track& track = it->second;
+      bool outlier = false;
+      if (Usable(track, frames)) {
+        outlier = !(track.inverse_depth > 0.0) || !DepthInRange(1.0 / track.inverse_depth);
+        if (!outlier) {
+          std::vector<Residual> residuals;
+          VisualResiduals(track, frames, &residuals);
+          double sum_px = 0.0;
+          for (const Residual& r : residuals) {
+            std::vector<const double*> values(r.parameters.begin(), r.parameters.end());
+            Eigen::Vector2d e;
+            r.cost->Evaluate(values.data(), e.data(), nullptr);
+            sum_px += e.norm() / SqrtInformation() * rig.intrinsics.fx;
+          }
+          outlier = !residuals.empty() && sum_px / residuals.size() > options.outlier_px;
+        }
+      }
+      if (outlier) {
+        dropped_in_newest += track.observations.count(window.back()->serial) != 0;
+        rejected.insert(it->first);
+        it = tracks.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    return dropped_in_newest;
+  }
+
+  void RemoveFromTracks(std::uint64_t serial) {
+    for (auto it = tracks.begin(); it != tracks.end();) {
+      Track& track = it->second;
+      const bool was_anchor = !track.observations.empty() && track.observations.begin()->first == serial;
+      track.observations.erase(serial);
+      if (track.observations.empty()) {
+        it = tracks.erase(it);
+        continue;
+      }
+      if (was_anchor) track.has_depth = false;  // triangulated again from the new anchor
+      ++it;
+    }
+  }
+
+  void MarginaliseOldest() {
+    const auto start = std::chrono::steady_clock::now();
+    WindowFrame& oldest = *window.front();
+    std::vector<Residual> residuals = Residuals(true);
+    std::vector<LinearisedBlock> blocks;
+    std::vector<ParameterInfo> parameters;
+    std::set<const double*> described;
+    auto describe = [&](double* values, int size, bool is_pose) {
+      if (described.insert(values).second) parameters.push_back({values, size, is_pose});
+    };
+    for (const auto& frame : window) {
+      describe(frame->pose.data(), kPoseSize, true);
+      describe(frame->speed_bias.data(), kSpeedBiasSize, false);
+    }
+    std::vector<double*> marginalised{oldest.pose.data(), oldest.speed_bias.data()};
+    // The features anchored in the oldest keyframe go with it; their depth moves to their next observation.
+    std::vector<std::pair<Track*, Eigen::Vector3d>> moved;
+    const auto frames = FramesBySerial();
+    for (auto& [id, track] : tracks) {
+      if (!Usable(track, frames) || track.observations.begin()->first != oldest.serial) continue;
+      describe(&track.inverse_depth, 1, false);
+      marginalised.push_back(&track.inverse_depth);
+      const Observation& anchor = track.observations.begin()->second;
+      const Eigen::Vector3d p_L =
+          Eigen::Vector3d(anchor.left.x(), anchor.left.y(), 1.0) / track.inverse_depth;
+      moved.emplace_back(&track, PoseFromBlock(oldest.pose.data()) * rig.X_IL * p_L);
+    }
+    for (const Residual& r : residuals) blocks.push_back({r.cost.get(), r.loss, r.parameters});
+    prior = std::make_shared<MarginalPrior>(Marginalise(blocks, parameters, marginalised));
+    if (initial_prior && initial_prior->serial == oldest.serial) initial_prior.reset();
+
+    const std::uint64_t serial = oldest.serial;
+    window.pop_front();
+    window.front()->imu.reset();
+    RemoveFromTracks(serial);
+    const auto remaining = FramesBySerial();
+    for (auto& [track, p_W] : moved) {
+      if (track->observations.empty() || remaining.count(track->observations.begin()->first) == 0) continue;
+      const Eigen::Isometry3d X_WL =
+          PoseFromBlock(remaining.at(track->observations.begin()->first)->pose.data()) * rig.X_IL;
+      const double depth_m = (X_WL.inverse() * p_W).z();
+      track->has_depth = DepthInRange(depth_m);
+      if (track->has_depth) track->inverse_depth = 1.0 / depth_m;
+    }
+    statistics.marginalisation_ms += Milliseconds(start);
+  }
+
+  // --- lifecycle ---------------------------------------------------------------------------------------
+  void Start(double t_s, const NavState& state, const ImuBiases& biases, const StatePriorSigmas& sigmas) {
+    window.clear();
+    tracks.clear();
+    rejected.clear();
+    prior.reset();
+    auto frame = std::make_unique<WindowFrame>();
+    frame->serial = next_serial++;
+    frame->t_s = t_s;
+    frame->keyframe = true;
+    frame->Set(state, biases);
+    initial_prior = InitialPrior{frame->serial, state, biases, sigmas};
+    since_keyframe = std::make_shared<ImuPreintegration>(SampleAt(t_s), biases, options.imu_noise);
+    window.push_back(std::move(frame));
+    frames_since_start = 0;
+    ++statistics.keyframes;
+  }
+
+  NavState GravityAligned() const {
+    // At rest f = −R_WIᵀ g_W: R_WI maps the mean specific force to "up" (−z in NED); yaw is set to zero.
+    Eigen::Vector3d f = Eigen::Vector3d::Zero();
+    for (const auto& [t, sample] : imu) f += sample.f_I_mps2;
+    const Eigen::Matrix3d R =
+        Eigen::Quaterniond::FromTwoVectors(f, -Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const double yaw = std::atan2(R(1, 0), R(0, 0));
+    NavState state;
+    state.q_WI = Eigen::Quaterniond(Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R);
+    return state;
+  }
+
+  std::optional<std::string> Failure(const Estimate& now, int dropped) const {
+    std::ostringstream why;
+    if (now.biases.accelerometer_mps2.norm() > options.max_accelerometer_bias_mps2) {
+      why << "accelerometer bias " << now.biases.accelerometer_mps2.norm() << " m/s^2";
+    } else if (now.biases.gyroscope_radps.norm() > options.max_gyroscope_bias_radps) {
+      why << "gyroscope bias " << now.biases.gyroscope_radps.norm() << " rad/s";
+    } else if (!now.state.p_WI_m.allFinite() || !now.state.v_WI_W_mps.allFinite() ||
+               !now.state.q_WI.coeffs().allFinite()) {
+      why << "a state that is not finite";
+    } else if (frames_since_start >= 2 && now.features < options.min_features) {
+      why << "only " << now.features << " features agree with the state";
+    } else if (2 * dropped > now.features && now.features + dropped >= options.min_features) {
+      why << dropped << " of " << now.features + dropped << " features disagree with the state";
+    } else if (last_good) {
+      const Eigen::Vector3d step = now.state.p_WI_m - last_good->state.p_WI_m;
+      const double turn_deg =
+          Log(Eigen::Quaterniond(last_good->state.q_WI.conjugate() * now.state.q_WI)).norm() * 180.0 / M_PI;
+      if (step.norm() > options.max_step_m) {
+        why << "a step of " << step.norm() << " m in one frame";
+      } else if (std::abs(step.z()) > options.max_vertical_step_m) {
+        why << "a vertical step of " << std::abs(step.z()) << " m in one frame";
+      } else if (turn_deg > options.max_rotation_step_deg) {
+        why << "a turn of " << turn_deg << " deg in one frame";
+      }
+    }
+    if (why.str().empty()) return std::nullopt;
+    return why.str();
+  }
+
+  Estimate Newest(bool keyframe, int features) const {
+    const WindowFrame& f = *window.back();
+    return {f.t_s, f.State(), f.Biases(), keyframe, false, features};
+  }
+};
+
+Estimator::Estimator(const StereoRig& rig, const EstimatorOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  if (options.window_keyframes < 2) throw std::invalid_argument("estimator: window_keyframes must be >= 2");
+  impl_->rig = rig;
+  impl_->X_IR = rig.X_IL * Eigen::Translation3d(rig.baseline_m, 0.0, 0.0);
+  impl_->options = options;
+  impl_->g_W = Eigen::Vector3d(0.0, 0.0, options.gravity_mps2);
+  impl_->loss = std::make_unique<ceres::CauchyLoss>(options.robust_loss_sigmas);
+}
+
+Estimator::~Estimator() = default;
+Estimator::Estimator(Estimator&&) noexcept = default;
+Estimator& Estimator::operator=(Estimator&&) noexcept = default;
+
+void Estimator::SetInitialState(const NavState& state, const ImuBiases& biases) {
+  impl_->given_initial_state = std::make_pair(state, biases);
+}
+
+void Estimator::AddImu(double t_s, const sensors::ImuSample& sample) {
+  if (!impl_->imu.empty() && !(t_s > impl_->imu.back().first)) {
+    std::ostringstream message;
+    message << "estimator: IMU sample at t = " << t_s << " s is not after the previous one ("
+            << impl_->imu.back().first << " s)";
+    throw std::invalid_argument(message.str());
+  }
+  impl_->imu.emplace_back(t_s, sample);
+}
+
+Estimate Estimator::AddFrame(const StereoFrame& frame) {
+  Impl& s = *impl_;
+  if (s.imu.empty() || s.imu.front().first > frame.t_s) {
+    std::ostringstream message;
+    message << "estimator: no IMU sample at or before the frame at t = " << frame.t_s << " s";
+    throw std::invalid_argument(message.str());
+  }
+  if (!(frame.t_s > s.last_frame_t_s)) {
+    std::ostringstream message;
+    message << "estimator: the frame at t = " << frame.t_s << " s is not after the previous frame ("
+            << s.last_frame_t_s << " s)";
+    throw std::invalid_argument(message.str());
+  }
+  ++s.statistics.frames;
+
+  if (s.window.empty()) {
+    if (s.given_initial_state) {
+      s.Start(frame.t_s, s.given_initial_state->first, s.given_initial_state->second,
+              s.options.given_state_prior);
+    } else {
+      s.Start(frame.t_s, s.GravityAligned(), {}, s.options.gravity_aligned_prior);
+    }
+    s.AddObservations(s.window.back()->serial, frame);
+    s.Triangulate();
+    s.last_frame_t_s = frame.t_s;
+    s.PruneImu();
+    s.last_good = s.Newest(true, 0);
+    return *s.last_good;
+  }
+
+  // The previous frame, when it was not a keyframe, gives way to this one.
+  if (!s.window.back()->keyframe) {
+    s.RemoveFromTracks(s.window.back()->serial);
+    s.window.pop_back();
+  }
+  s.IntegrateTo(s.since_keyframe.get(), s.last_frame_t_s, frame.t_s);
+  const WindowFrame& keyframe = *s.window.back();
+  auto newest = std::make_unique<WindowFrame>();
+  newest->serial = s.next_serial++;
+  newest->t_s = frame.t_s;
+  newest->imu = std::make_shared<ImuPreintegration>(*s.since_keyframe);
+  newest->Set(s.since_keyframe->Predict(keyframe.State(), keyframe.Biases(), s.g_W), keyframe.Biases());
+  s.window.push_back(std::move(newest));
+  s.AddObservations(s.window.back()->serial, frame);
+  s.Triangulate();
+  s.Solve();
+  const int dropped = s.RejectOutliers();
+  s.last_frame_t_s = frame.t_s;
+  ++s.frames_since_start;
+
+  Estimate estimate = s.Newest(frame.keyframe, s.NewestFeatures());
+  if (const auto failure = s.Failure(estimate, dropped)) {
+    ++s.statistics.failures;
+    std::ostringstream why;
+    why << "t = " << frame.t_s << " s: " << *failure;
+    s.statistics.last_failure = why.str();
+    // Restart from the last good estimate, carried to this frame by the IMU alone.
+    ImuPreintegration carry(s.SampleAt(s.last_good->t_s), s.last_good->biases, s.options.imu_noise);
+    s.IntegrateTo(&carry, s.last_good->t_s, frame.t_s);
+    const NavState carried = carry.Predict(s.last_good->state, s.last_good->biases, s.g_W);
+    s.Start(frame.t_s, carried, s.last_good->biases, s.options.reset_prior);
+    s.AddObservations(s.window.back()->serial, frame);
+    s.Triangulate();
+    s.PruneImu();
+    estimate = s.Newest(true, 0);
+    estimate.reset = true;
+    s.last_good = estimate;
+    return estimate;
+  }
+  if (frame.keyframe) {
+    WindowFrame& f = *s.window.back();
+    f.keyframe = true;
+    ++s.statistics.keyframes;
+    s.since_keyframe =
+        std::make_shared<ImuPreintegration>(s.SampleAt(frame.t_s), f.Biases(), s.options.imu_noise);
+    int keyframes = 0;
+    for (const auto& w : s.window) keyframes += w->keyframe ? 1 : 0;
+    if (keyframes > s.options.window_keyframes) s.MarginaliseOldest();
+  }
+  s.PruneImu();
+  s.last_good = estimate;
+  return estimate;
+}
+
+const EstimatorStatistics& Estimator::statistics() const { return impl_->statistics; }
+
+}  // namespace iapsim::vio

@@ -1,0 +1,95 @@
+#pragma once
+// The sliding-window visual-inertial estimator of one sub-aircraft (the seed's VINS baseline, [52]; stereo
+// as VINS-Fusion): a window of keyframes plus the newest frame, each with pose, velocity and biases; features
+// as inverse depths in the left eye of their first keyframe; IMU, reprojection and stereo residuals solved by
+// Ceres; the oldest keyframe marginalised into a prior when the window is full; a frame that is not a
+// keyframe stays only until the next frame replaces it (its IMU interval then continues from the last
+// keyframe). Initialisation from a given state (the paper ties each sub-aircraft's frame to the first
+// ground-truth pose) or from gravity (roll and pitch from the accelerometer, yaw and position zero), and
+// failure detection with a reset from the last good estimate (VINS-Fusion's checks).
+//
+// Deterministic: one thread, iteration limits only (no time limits), so the same inputs give the same
+// estimates bit for bit.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "sensors/imu.h"
+#include "vio/state.h"
+#include "vio/stereo_rig.h"
+#include "vio/stereo_tracker.h"
+
+namespace iapsim::vio {
+
+struct EstimatorOptions {
+  int window_keyframes = 10;  ///< VINS's WINDOW_SIZE
+  double pixel_sigma_px = 1.5;
+  double robust_loss_sigmas = 1.0;  ///< Cauchy loss scale on whitened reprojection residuals
+  int max_iterations = 8;           ///< VINS's NUM_ITERATIONS
+  double min_depth_m = 0.2;
+  double max_depth_m = 80.0;
+  double outlier_px = 3.0;  ///< a feature whose mean reprojection error exceeds this is dropped
+  double gravity_mps2 = 9.81;
+  sensors::ImuNoise imu_noise = sensors::TableViNoise();
+  StatePriorSigmas given_state_prior{};  ///< around a state from SetInitialState
+  /// Around a gravity-aligned start: position and yaw fix the gauge, the tilt and velocity are loose.
+  StatePriorSigmas gravity_aligned_prior{1e-3, 0.05, 1e-3, 0.5, 0.01, 0.1};
+  /// Around the last good estimate after a failure: that estimate carried to the frame by the IMU alone
+  /// sets position and yaw; its velocity may be what failed, so it is held loosely.
+  StatePriorSigmas reset_prior{1e-3, 0.02, 1e-3, 10.0, 0.01, 0.1};
+  /// Failure checks on the newest estimate against the previous one (VINS-Fusion's failureDetection), and
+  /// the images' verdict on the state: more than a third of the newest frame's features dropped as outliers
+  /// in one solve, or fewer than `min_features` left in it (from the third frame after a start on).
+  int min_features = 10;
+  double max_accelerometer_bias_mps2 = 2.5;
+  double max_gyroscope_bias_radps = 1.0;
+  double max_step_m = 5.0;
+  double max_vertical_step_m = 1.0;
+  double max_rotation_step_deg = 50.0;
+};
+
+struct Estimate {
+  double t_s = 0.0;
+  NavState state;
+  ImuBiases biases;
+  bool keyframe = false;
+  bool reset =
+      false;  ///< a failure was detected at this frame: the estimator restarted from the last good estimate
+  int features = 0;  ///< features in this frame's solve
+};
+
+struct EstimatorStatistics {
+  int frames = 0;
+  int keyframes = 0;
+  int failures = 0;
+  std::string last_failure;
+  double solve_ms = 0.0;  ///< totals
+  double marginalisation_ms = 0.0;
+};
+
+class Estimator {
+ public:
+  explicit Estimator(const StereoRig& rig, const EstimatorOptions& options = {});
+  ~Estimator();
+  Estimator(Estimator&&) noexcept;
+  Estimator& operator=(Estimator&&) noexcept;
+
+  /// The state at the first frame (before it arrives). Without it the estimator aligns with gravity.
+  void SetInitialState(const NavState& state, const ImuBiases& biases = {});
+  /// An IMU sample, in increasing time. Throws std::invalid_argument otherwise.
+  void AddImu(double t_s, const sensors::ImuSample& sample);
+  /// A tracked stereo frame, after the IMU samples up to its time (a sample after it is used to interpolate;
+  /// without one the last sample is held). Throws std::invalid_argument when no IMU sample came before it or
+  /// its time is not after the previous frame's. A failure restarts the window at this frame, with its
+  /// features, from the last good estimate (the returned estimate says `reset`); the tracker goes on.
+  Estimate AddFrame(const StereoFrame& frame);
+
+  const EstimatorStatistics& statistics() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace iapsim::vio
