@@ -3,12 +3,8 @@
 # collect and eval, bad configuration, SIGTERM of a running launcher (clean stop, no process left behind).
 # usage: cli_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
-bin=$1
-src=$2
-iapsim=$bin/iapsim
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+# shellcheck source=tests/support/script.sh
+source "$(dirname "$0")/support/script.sh"
 
 # every subcommand answers --help
 for cmd in run replay info "bag reindex" export video topics echo urdf bench "rl eval" "rl collect"; do
@@ -47,14 +43,6 @@ recorded=$(stamp_of_first "$work/run/run.bag" /iap/uwb)
 [ "$(stamp_of_first "$work/replayed_kept/run.bag" /old/uwb)" = "$recorded" ] || fail "restamp false changed the stamp"
 [ "$(stamp_of_first "$work/replayed/run.bag" /old/uwb)" != "$recorded" ] || fail "restamp kept the recorded stamp"
 # replay of a pose file: the poses need a topic; a bad line is named with its file and line number
-expect_exit() {  # CODE TEXT COMMAND...: expects the exit code and TEXT on its standard error
-  set +e
-  "${@:3}" > /dev/null 2> "$work/expect.err"
-  local code=$?
-  set -e
-  [ $code -eq "$1" ] || fail "${*:3} exited $code: $(cat "$work/expect.err")"
-  grep -q "$2" "$work/expect.err" || fail "${*:3}: $(cat "$work/expect.err")"
-}
 replay_square=(--scenario "$src/configs/scenarios/three_square_replay.yaml" --duration 1 --out "$work/replayed_file")
 printf 't_s,x_m,y_m,z_m,qx,qy,qz,qw\n5.0,0,0,-2,0,0,0,1\n5.02,0,0,-2,0,0,0.5,1\n' > "$work/cmd.csv"
 expect_exit 2 "a csv pose file needs --topic" "$iapsim" replay "$work/cmd.csv" "${replay_square[@]}"

@@ -16,15 +16,16 @@
 
 namespace {
 
-// `iapsim rl ...` becomes the iapsim_rl program beside this one (tools/rl_commands.h says why), with the
-// same arguments, output and exit code.
-int ExecRl(int argc, char** argv) {
-  const std::string program = iapsim::bridge::ExecutableDir() + "/iapsim_rl";
+// `iapsim rl ...` and `iapsim vio ...` become the iapsim_rl and iapsim_vio_offline programs beside this one
+// (tools/rl_commands.h and tools/vio_offline.h say why), with the same arguments, output and exit code.
+int ExecCompanion(const char* name, int argc, char** argv) {
+  const std::string program = iapsim::bridge::ExecutableDir() + "/" + name;
   std::vector<char*> args = {const_cast<char*>(program.c_str())};
   for (int i = 2; i < argc; ++i) args.push_back(argv[i]);
   args.push_back(nullptr);
-  // libtorch's BLAS (OpenBLAS, tools/install-deps.sh) starts a thread per core for every product, on top of
-  // libtorch's and the environments' threads: one BLAS thread trains TD3-BC 2.5x faster here
+  // OpenBLAS (tools/install-deps.sh) starts a thread per core for every product, on top of the programs' own
+  // threads (libtorch's and the environments', one estimator per sub-aircraft): one BLAS thread trains TD3-BC
+  // 2.5x faster here
   ::setenv("OPENBLAS_NUM_THREADS", "1", /*overwrite=*/0);
   ::execv(program.c_str(), args.data());
   std::cerr << "iapsim: cannot start " << program << ": " << std::strerror(errno) << std::endl;
@@ -35,7 +36,8 @@ int ExecRl(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   using namespace iapsim::tools;
-  if (argc > 1 && std::string(argv[1]) == "rl") return ExecRl(argc, argv);
+  if (argc > 1 && std::string(argv[1]) == "rl") return ExecCompanion("iapsim_rl", argc, argv);
+  if (argc > 1 && std::string(argv[1]) == "vio") return ExecCompanion("iapsim_vio_offline", argc, argv);
   CLI::App app("iapsim: a multi-process simulator for Integrated Aerial Platforms");
   app.require_subcommand(1);
 
@@ -176,9 +178,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   bench_cmd->add_option("--json", bench.json, "also write the figures to this JSON file");
 
-  // listed for --help; `iapsim rl ...` never gets here (ExecRl)
+  // listed for --help; `iapsim rl ...` and `iapsim vio ...` never get here (ExecCompanion)
   app.add_subcommand(
       "rl", "the air-docking learning task (seed section VI-H): eval, collect; see iapsim rl --help");
+  app.add_subcommand(
+      "vio", "visual-inertial odometry over a recorded run (seed section VI-G); see iapsim vio --help");
 
   try {
     app.parse(argc, argv);

@@ -8,12 +8,8 @@
 # that names it.
 # usage: policy_graph_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
-bin=$1
-src=$2
-iapsim=$bin/iapsim
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+# shellcheck source=tests/support/script.sh
+source "$(dirname "$0")/../support/script.sh"
 
 # the task with its observation noise off, and what else the sed expressions given say
 noise_free() {

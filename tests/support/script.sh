@@ -1,0 +1,18 @@
+# What the end-to-end test scripts share; source it right after `set -euo pipefail` with the script's
+# arguments BUILD_BIN_DIR SOURCE_DIR: $bin, $src, $iapsim, a scratch folder $work removed on exit, `fail` and
+# `expect_exit`.
+# shellcheck shell=bash
+bin=$1
+src=$2
+iapsim=$bin/iapsim
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+expect_exit() {  # CODE TEXT COMMAND...: expects the exit code and TEXT (literally) on its standard error
+  set +e
+  "${@:3}" > /dev/null 2> "$work/expect.err"
+  local code=$?
+  set -e
+  [ $code -eq "$1" ] || fail "${*:3} exited $code: $(cat "$work/expect.err")"
+  grep -qF -- "$2" "$work/expect.err" || fail "${*:3}: $(cat "$work/expect.err")"
+}

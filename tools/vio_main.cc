@@ -1,0 +1,31 @@
+// iapsim_vio_offline: `iapsim vio` (tools/vio_offline.h), which `iapsim vio ...` execs.
+//   iapsim vio RUN_DIR|BAG [--mode vio] [--scenario S] [--sub BODY]... [--out DIR]
+
+#include <CLI/CLI.hpp>
+
+#include "bridge/cli_usage.h"
+#include "tools/vio_offline.h"
+
+int main(int argc, char** argv) {
+  iapsim::tools::VioOfflineArgs args;
+  CLI::App app(
+      "iapsim vio: visual-inertial odometry of every stereo sub-aircraft over a recorded run (seed VI-G)",
+      "iapsim vio");
+  app.add_option("input", args.input, "a run directory (run.bag, scenario.resolved.yaml) or a bag")
+      ->required()
+      ->check(CLI::ExistingPath);
+  app.add_option("--mode", args.mode, "estimator: vio (the paper's VINS baseline)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"vio"}));
+  app.add_option("--scenario", args.scenario, "with a bag: the scenario it was recorded from")
+      ->check(CLI::ExistingFile);
+  app.add_option("--sub", args.sub_aircraft, "a body to estimate, e.g. iap/sub1 (repeatable; default: all)");
+  app.add_option("--out", args.out_dir,
+                 "where the TUM files and vio.json go (default: beside the bag, vio_<mode>)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return iapsim::bridge::AnswerParseError(app, e);
+  }
+  return iapsim::tools::VioOffline(args);
+}
