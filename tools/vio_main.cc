@@ -1,5 +1,5 @@
 // iapsim_vio_offline: `iapsim vio` (tools/vio_offline.h), which `iapsim vio ...` execs.
-//   iapsim vio RUN_DIR|BAG [--mode vio] [--scenario S] [--sub BODY]... [--out DIR]
+//   iapsim vio RUN_DIR|BAG [--mode vio|vio_uwb] [--scenario S] [--sub BODY]... [--out DIR]
 
 #include <CLI/CLI.hpp>
 
@@ -14,9 +14,11 @@ int main(int argc, char** argv) {
   app.add_option("input", args.input, "a run directory (run.bag, scenario.resolved.yaml) or a bag")
       ->required()
       ->check(CLI::ExistingPath);
-  app.add_option("--mode", args.mode, "estimator: vio (the paper's VINS baseline)")
+  app.add_option(
+         "--mode", args.mode,
+         "estimator: vio (the paper's VINS baseline) or vio_uwb (plus ranges to the scenario's anchors)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"vio"}));
+      ->check(CLI::IsMember({"vio", "vio_uwb"}));
   app.add_option("--scenario", args.scenario, "with a bag: the scenario it was recorded from")
       ->check(CLI::ExistingFile);
   app.add_option("--sub", args.sub_aircraft, "a body to estimate, e.g. iap/sub1 (repeatable; default: all)");

@@ -1,5 +1,6 @@
 #include "tools/vio_offline.h"
 
+#include <iapsim_msgs/UwbRanges.h>
 #include <nav_msgs/Odometry.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/CompressedImage.h>
@@ -53,6 +54,10 @@ struct SubAircraftInput {
   Eigen::Isometry3d X_BI = Eigen::Isometry3d::Identity();
   sensors::ImuNoise imu_noise;
   std::string left_topic, right_topic, left_info_topic, imu_topic, truth_topic;
+  // vio_uwb: the tag's ranges to the scenario's anchors (the tag is at the body's origin, sensors/uwb.h)
+  std::string uwb_topic;
+  std::map<std::string, Eigen::Vector3d> anchors_W;
+  double range_sigma_m = 0.0;
 };
 
 struct TruthSample {
@@ -135,6 +140,16 @@ DatasetInput ReadDataset(const VioOfflineArgs& args) {
     sub.left_info_topic = camera.TopicNamespace(0) + "/camera_info";
     sub.imu_topic = "/" + camera.mount.body + "/imu";
     sub.truth_topic = "/" + camera.mount.body + "/odom";
+    if (args.mode == "vio_uwb") {
+      if (sensors_config.uwb.anchors.empty()) {
+        throw DatasetError(in.scenario_path + ": --mode vio_uwb needs UWB anchors (processes." +
+                           sensors_process + ".params.uwb.anchors or anchors_file)");
+      }
+      sub.uwb_topic = "/" + camera.mount.body + "/uwb";
+      for (const sensors::UwbAnchor& anchor : sensors_config.uwb.anchors)
+        sub.anchors_W[anchor.name] = anchor.p_WA_m;
+      sub.range_sigma_m = sensors_config.uwb.noise.sigma_m;
+    }
     in.subs.push_back(sub);
   }
   if (!wanted.empty()) {
@@ -226,6 +241,7 @@ SubAircraftResult Estimate(const std::string& bag_path, const SubAircraftInput& 
   vio::StereoTracker tracker(sub.rig);
   vio::EstimatorOptions options;
   options.imu_noise = sub.imu_noise;
+  options.p_IT_m = sub.X_BI.inverse().translation();  // the tag at the body's origin, in I
   vio::Estimator estimator(sub.rig, options);
   struct PendingPair {
     std::vector<uint8_t> left, right;
@@ -276,7 +292,23 @@ SubAircraftResult Estimate(const std::string& bag_path, const SubAircraftInput& 
 
   sensor_msgs::Imu imu;
   sensor_msgs::CompressedImage image;
-  bag.ForEach({sub.imu_topic, sub.left_topic, sub.right_topic}, [&](const bridge::BagMessage& m) {
+  iapsim_msgs::UwbRanges ranges;
+  std::vector<std::string> topics{sub.imu_topic, sub.left_topic, sub.right_topic};
+  if (!sub.uwb_topic.empty()) topics.push_back(sub.uwb_topic);
+  bag.ForEach(topics, [&](const bridge::BagMessage& m) {
+    if (m.topic == sub.uwb_topic) {
+      if (!bridge::Decode(m.bytes, &ranges, &error) || ranges.peers.size() != ranges.ranges_m.size()) {
+        throw DatasetError(bag_path + ": " + m.topic + ": " +
+                           (error.empty() ? "peers and ranges_m differ in length" : error));
+      }
+      const double t_s = static_cast<double>(bridge::ToNanoseconds(ranges.header.stamp)) * 1e-9;
+      for (std::size_t i = 0; i < ranges.peers.size(); ++i) {
+        const auto anchor = sub.anchors_W.find(ranges.peers[i]);
+        if (anchor != sub.anchors_W.end())
+          estimator.AddRange(t_s, anchor->second, ranges.ranges_m[i], sub.range_sigma_m);
+      }
+      return true;
+    }
     if (m.topic == sub.imu_topic) {
       if (!bridge::Decode(m.bytes, &imu, &error))
         throw DatasetError(bag_path + ": " + m.topic + ": " + error);
@@ -370,6 +402,7 @@ int Run(const VioOfflineArgs& args) {
     report["sub_aircraft"][sub.body] = {{"frames", r.frames},
                                         {"keyframes", r.statistics.keyframes},
                                         {"failures", r.statistics.failures},
+                                        {"ranges_used", r.statistics.ranges_used},
                                         {"last_failure", r.statistics.last_failure},
                                         {"ate", AteJson(r.ate)},
                                         {"ate_aligned", AteJson(r.ate_aligned)},

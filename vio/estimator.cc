@@ -1,5 +1,6 @@
 #include "vio/estimator.h"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -65,6 +66,20 @@ struct InitialPrior {
   StatePriorSigmas sigmas;
 };
 
+struct PendingRange {
+  double t_s = 0.0;
+  Eigen::Vector3d p_WA_m = Eigen::Vector3d::Zero();
+  double range_m = 0.0;
+  double sigma_m = 0.0;
+};
+
+// A range attached to a keyframe through the IMU from that keyframe to the range's time.
+struct RangeMeasurement {
+  std::uint64_t serial = 0;
+  std::shared_ptr<ImuPreintegration> since_keyframe;
+  PendingRange range;
+};
+
 // A residual block to add to a problem or to marginalise.
 struct Residual {
   std::unique_ptr<ceres::CostFunction> cost;
@@ -89,6 +104,7 @@ struct Estimator::Impl {
   EstimatorOptions options;
   Eigen::Vector3d g_W;
   std::unique_ptr<ceres::LossFunction> loss;
+  std::unique_ptr<ceres::LossFunction> range_loss;
   PoseManifold pose_manifold;
 
   std::deque<std::unique_ptr<WindowFrame>> window;
@@ -98,6 +114,8 @@ struct Estimator::Impl {
   std::optional<InitialPrior> initial_prior;
   std::optional<std::pair<NavState, ImuBiases>> given_initial_state;
 
+  std::deque<PendingRange> pending_ranges;
+  std::vector<RangeMeasurement> ranges;
   std::deque<std::pair<double, sensors::ImuSample>> imu;
   std::shared_ptr<ImuPreintegration> since_keyframe;  ///< from the newest keyframe to the last frame
   double last_frame_t_s = -std::numeric_limits<double>::infinity();
@@ -134,6 +152,23 @@ struct Estimator::Impl {
   void PruneImu() {
     // Keep one sample at or before the last frame, for interpolation.
     while (imu.size() > 1 && imu[1].first <= last_frame_t_s) imu.pop_front();
+  }
+
+  // Ranges up to `t_s` join the newest keyframe through the IMU since it (window.back() is that keyframe and
+  // since_keyframe reaches the last frame).
+  void AttachRanges(double t_s) {
+    while (!pending_ranges.empty() && pending_ranges.front().t_s <= t_s) {
+      const PendingRange range = pending_ranges.front();
+      pending_ranges.pop_front();
+      if (window.empty() || range.t_s < last_frame_t_s) {
+        ++statistics.ranges_dropped;
+        continue;
+      }
+      auto pre = std::make_shared<ImuPreintegration>(*since_keyframe);
+      if (range.t_s > last_frame_t_s) IntegrateTo(pre.get(), last_frame_t_s, range.t_s);
+      ranges.push_back({window.back()->serial, std::move(pre), range});
+      ++statistics.ranges_used;
+    }
   }
 
   // --- features ----------------------------------------------------------------------------------------
@@ -254,6 +289,14 @@ struct Estimator::Impl {
       if (!Usable(track, frames)) continue;
       if (oldest_only && track.observations.begin()->first != oldest.serial) continue;
       VisualResiduals(track, frames, &residuals);
+    }
+    for (const RangeMeasurement& m : ranges) {
+      const auto frame = frames.find(m.serial);
+      if (frame == frames.end() || (oldest_only && m.serial != oldest.serial)) continue;
+      residuals.push_back({std::make_unique<RangeFactor>(m.since_keyframe, m.range.p_WA_m, m.range.range_m,
+                                                         m.range.sigma_m, options.p_IT_m, g_W),
+                           range_loss.get(),
+                           {frame->second->pose.data(), frame->second->speed_bias.data()}});
     }
     return residuals;
   }
@@ -387,6 +430,9 @@ struct Estimator::Impl {
     if (initial_prior && initial_prior->serial == oldest.serial) initial_prior.reset();
 
     const std::uint64_t serial = oldest.serial;
+    ranges.erase(std::remove_if(ranges.begin(), ranges.end(),
+                                [&](const RangeMeasurement& m) { return m.serial == serial; }),
+                 ranges.end());
     window.pop_front();
     window.front()->imu.reset();
     RemoveFromTracks(serial);
@@ -407,6 +453,7 @@ struct Estimator::Impl {
     window.clear();
     tracks.clear();
     rejected.clear();
+    ranges.clear();
     prior.reset();
     auto frame = std::make_unique<WindowFrame>();
     frame->serial = next_serial++;
@@ -475,6 +522,7 @@ Estimator::Estimator(const StereoRig& rig, const EstimatorOptions& options)
   impl_->options = options;
   impl_->g_W = Eigen::Vector3d(0.0, 0.0, options.gravity_mps2);
   impl_->loss = std::make_unique<ceres::CauchyLoss>(options.robust_loss_sigmas);
+  impl_->range_loss = std::make_unique<ceres::HuberLoss>(options.range_huber_sigmas);
 }
 
 Estimator::~Estimator() = default;
@@ -493,6 +541,21 @@ void Estimator::AddImu(double t_s, const sensors::ImuSample& sample) {
     throw std::invalid_argument(message.str());
   }
   impl_->imu.emplace_back(t_s, sample);
+}
+
+void Estimator::AddRange(double t_s, const Eigen::Vector3d& p_WA_m, double range_m, double sigma_m) {
+  if (!(sigma_m > 0.0) || !std::isfinite(range_m) || !p_WA_m.allFinite()) {
+    std::ostringstream message;
+    message << "estimator: the range at t = " << t_s << " s needs a finite range and anchor and sigma_m > 0";
+    throw std::invalid_argument(message.str());
+  }
+  if (!impl_->pending_ranges.empty() && t_s < impl_->pending_ranges.back().t_s) {
+    std::ostringstream message;
+    message << "estimator: the range at t = " << t_s << " s is older than the previous one ("
+            << impl_->pending_ranges.back().t_s << " s)";
+    throw std::invalid_argument(message.str());
+  }
+  impl_->pending_ranges.push_back({t_s, p_WA_m, range_m, sigma_m});
 }
 
 Estimate Estimator::AddFrame(const StereoFrame& frame) {
@@ -520,6 +583,7 @@ Estimate Estimator::AddFrame(const StereoFrame& frame) {
     s.AddObservations(s.window.back()->serial, frame);
     s.Triangulate();
     s.last_frame_t_s = frame.t_s;
+    s.AttachRanges(frame.t_s);  // those at the first frame's time join it; earlier ones are dropped
     s.PruneImu();
     s.last_good = s.Newest(true, 0);
     return *s.last_good;
@@ -530,6 +594,7 @@ Estimate Estimator::AddFrame(const StereoFrame& frame) {
     s.RemoveFromTracks(s.window.back()->serial);
     s.window.pop_back();
   }
+  s.AttachRanges(frame.t_s);
   s.IntegrateTo(s.since_keyframe.get(), s.last_frame_t_s, frame.t_s);
   const WindowFrame& keyframe = *s.window.back();
   auto newest = std::make_unique<WindowFrame>();

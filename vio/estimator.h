@@ -30,6 +30,8 @@ struct EstimatorOptions {
   double min_depth_m = 0.2;
   double max_depth_m = 80.0;
   double outlier_px = 3.0;  ///< a feature whose mean reprojection error exceeds this is dropped
+  Eigen::Vector3d p_IT_m = Eigen::Vector3d::Zero();  ///< the UWB tag in the IMU frame
+  double range_huber_sigmas = 3.0;                   ///< Huber loss on whitened UWB range residuals
   double gravity_mps2 = 9.81;
   sensors::ImuNoise imu_noise = sensors::TableViNoise();
   StatePriorSigmas given_state_prior{};  ///< around a state from SetInitialState
@@ -64,7 +66,9 @@ struct EstimatorStatistics {
   int keyframes = 0;
   int failures = 0;
   std::string last_failure;
-  double solve_ms = 0.0;  ///< totals
+  int ranges_used = 0;
+  int ranges_dropped = 0;  ///< older than the frame before them, or before the first frame
+  double solve_ms = 0.0;   ///< totals
   double marginalisation_ms = 0.0;
 };
 
@@ -79,6 +83,11 @@ class Estimator {
   void SetInitialState(const NavState& state, const ImuBiases& biases = {});
   /// An IMU sample, in increasing time. Throws std::invalid_argument otherwise.
   void AddImu(double t_s, const sensors::ImuSample& sample);
+  /// A UWB range (`vio_uwb`, seed Tables VII, X, XI) from the tag (EstimatorOptions::p_IT_m) to an anchor at
+  /// p_WA_m, with its standard deviation. The anchors are in W, so the estimator's frame must be W: give
+  /// SetInitialState. The range joins the newest keyframe at the next frame, through the IMU between them; a
+  /// range older than the last frame is dropped (counted).
+  void AddRange(double t_s, const Eigen::Vector3d& p_WA_m, double range_m, double sigma_m);
   /// A tracked stereo frame, after the IMU samples up to its time (a sample after it is used to interpolate;
   /// without one the last sample is held). Throws std::invalid_argument when no IMU sample came before it or
   /// its time is not after the previous frame's. A failure restarts the window at this frame, with its

@@ -214,6 +214,55 @@ bool StereoFactor::Evaluate(double const* const* parameters, double* residuals, 
   return true;
 }
 
+RangeFactor::RangeFactor(std::shared_ptr<const ImuPreintegration> since_keyframe,
+                         const Eigen::Vector3d& p_WA_m, double range_m, double sigma_m,
+                         const Eigen::Vector3d& p_IT_m, const Eigen::Vector3d& g_W_mps2)
+    : since_keyframe_(std::move(since_keyframe)),
+      p_WA_m_(p_WA_m),
+      range_m_(range_m),
+      sigma_m_(sigma_m),
+      p_IT_m_(p_IT_m),
+      g_W_mps2_(g_W_mps2) {
+  if (!(sigma_m > 0.0)) throw std::invalid_argument("range factor: sigma_m must be > 0");
+}
+
+bool RangeFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const ImuPreintegration& pre = *since_keyframe_;
+  const Eigen::Matrix3d R_k = Rotation(parameters[0]).toRotationMatrix();
+  const Eigen::Vector3d v_k(parameters[1]);
+  const ImuBiases biases{Eigen::Vector3d(parameters[1] + 3), Eigen::Vector3d(parameters[1] + 6)};
+  const ImuDelta d = pre.Corrected(biases);
+  const double dt = pre.dt_s();
+  const Eigen::Vector3d lever_k = d.delta_p_m + d.delta_R * p_IT_m_;  // the tag from p_k, in I at t_k
+  const Eigen::Vector3d p_T = Position(parameters[0]) + v_k * dt + 0.5 * g_W_mps2_ * dt * dt + R_k * lever_k;
+  const Eigen::Vector3d to_anchor = p_T - p_WA_m_;
+  const double distance = to_anchor.norm();
+  residuals[0] = (distance - range_m_) / sigma_m_;
+  if (jacobians == nullptr) return true;
+  // d r / d p_T, then the chain through p_T's terms (right perturbations, as in ImuFactor).
+  const Eigen::RowVector3d dr_dp = to_anchor.transpose() / (std::max(distance, 1e-9) * sigma_m_);
+  if (jacobians[0] != nullptr) {
+    RowMajorMap<1, kPoseSize> J(jacobians[0]);
+    J.setZero();
+    J.leftCols<3>() = dr_dp;
+    J.middleCols<3>(3) = dr_dp * R_k * -Skew(lever_k);
+  }
+  if (jacobians[1] != nullptr) {
+    const Matrix93d& J_bg = pre.jacobian_gyroscope_bias();
+    const Matrix93d& J_ba = pre.jacobian_accelerometer_bias();
+    const Eigen::Vector3d d_bg = biases.gyroscope_radps - pre.linearisation_biases().gyroscope_radps;
+    const Eigen::Matrix3d J_R_bg = J_bg.topRows<3>();
+    // ΔR(b) p_IT = ΔR̄ Exp(J_R_bg δb_g) p_IT: its derivative is −ΔR(b) [p_IT]× J_r(J_R_bg δb_g) J_R_bg.
+    const Eigen::Matrix3d d_lever_d_bg =
+        J_bg.bottomRows<3>() - d.delta_R * Skew(p_IT_m_) * RightJacobian(J_R_bg * d_bg) * J_R_bg;
+    RowMajorMap<1, kSpeedBiasSize> J(jacobians[1]);
+    J.leftCols<3>() = dr_dp * dt;
+    J.middleCols<3>(3) = dr_dp * R_k * d_lever_d_bg;
+    J.rightCols<3>() = dr_dp * R_k * J_ba.bottomRows<3>();
+  }
+  return true;
+}
+
 StatePriorFactor::StatePriorFactor(const NavState& state, const ImuBiases& biases,
                                    const StatePriorSigmas& sigmas)
     : state_(state), biases_(biases) {

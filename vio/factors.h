@@ -90,6 +90,25 @@ class StereoFactor : public ceres::SizedCostFunction<2, 1> {
   double sqrt_information_;
 };
 
+/// A UWB range from the tag at p_IT (in I) to an anchor at p_WA, taken at t_r after keyframe k: the IMU's
+/// state at t_r comes from keyframe k's state and the preintegration from t_k to t_r (Forster's prediction),
+/// so a range needs no state of its own whatever its rate. 1 residual: (|p_T(t_r) − p_WA| − d) / σ.
+/// Parameters: pose_k, speed_bias_k. (The seed's r_uwb, eq. 22.)
+class RangeFactor : public ceres::SizedCostFunction<1, kPoseSize, kSpeedBiasSize> {
+ public:
+  RangeFactor(std::shared_ptr<const ImuPreintegration> since_keyframe, const Eigen::Vector3d& p_WA_m,
+              double range_m, double sigma_m, const Eigen::Vector3d& p_IT_m, const Eigen::Vector3d& g_W_mps2);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  std::shared_ptr<const ImuPreintegration> since_keyframe_;
+  Eigen::Vector3d p_WA_m_;
+  double range_m_;
+  double sigma_m_;
+  Eigen::Vector3d p_IT_m_;
+  Eigen::Vector3d g_W_mps2_;
+};
+
 /// A prior on one state (the first of the window, when nothing has been marginalised yet): 15 residuals
 /// [p − p₀, Log(R R₀ᵀ), v − v₀, b_g − b_g₀, b_a − b_a₀], each divided by its standard deviation. The rotation
 /// error is in W's axes, so that its z sigma is the yaw's. Parameters: pose, speed_bias.
