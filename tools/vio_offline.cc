@@ -125,10 +125,12 @@ DatasetInput ReadDataset(const VioOfflineArgs& args) {
   X_BI.linear() = sensors_config.imu.q_BI.toRotationMatrix();
   X_BI.translation() = sensors_config.imu.p_BI_m;
 
-  std::set<std::string> wanted(args.sub_aircraft.begin(), args.sub_aircraft.end());
+  const std::set<std::string> wanted(args.sub_aircraft.begin(), args.sub_aircraft.end());
+  std::set<std::string> not_found = wanted;
   for (const render::CameraConfig& camera : cameras) {
     if (camera.mount.kind != render::CameraMount::Kind::kBody || !(camera.baseline_m > 0.0)) continue;
-    if (!wanted.empty() && wanted.erase(camera.mount.body) == 0) continue;
+    if (!wanted.empty() && wanted.count(camera.mount.body) == 0) continue;
+    not_found.erase(camera.mount.body);
     SubAircraftInput sub;
     sub.body = camera.mount.body;
     sub.camera = camera;
@@ -152,8 +154,8 @@ DatasetInput ReadDataset(const VioOfflineArgs& args) {
     }
     in.subs.push_back(sub);
   }
-  if (!wanted.empty()) {
-    throw DatasetError(in.scenario_path + ": no stereo camera on '" + *wanted.begin() + "' (--sub)");
+  if (!not_found.empty()) {
+    throw DatasetError(in.scenario_path + ": no stereo camera on '" + *not_found.begin() + "' (--sub)");
   }
   if (in.subs.empty())
     throw DatasetError(in.scenario_path + ": no body-mounted stereo camera (baseline_m > 0)");
