@@ -25,6 +25,7 @@
 #include "bridge/message.h"
 #include "bridge/message_format.h"
 #include "bridge/scenario.h"
+#include "model/vehicle.h"
 #include "render/camera_rig.h"
 #include "render/image.h"
 #include "sensors/sensor_config.h"
@@ -69,7 +70,6 @@ struct TruthSample {
 struct SubAircraftResult {
   std::vector<bridge::StampedPose> estimate, truth;  // of the body B, at the image stamps
   vio::EstimatorStatistics statistics;
-  vio::AbsoluteTrajectoryError ate, ate_aligned;
   double decode_ms = 0.0, front_end_ms = 0.0, wall_s = 0.0, sequence_s = 0.0;
   int frames = 0;
 };
@@ -78,6 +78,10 @@ struct DatasetInput {
   std::string bag_path;
   std::string scenario_path;
   std::vector<SubAircraftInput> subs;
+  // the platform centre, from the sub-aircraft estimates and the vehicle's joints (seed §VI-G), when every
+  // sub-aircraft of the vehicle is estimated
+  std::string platform_truth_topic;
+  std::vector<Eigen::Vector3d> joints_P;  ///< d_i, in the order of `subs`
 };
 
 // The params of the first process that has `key` (the renderer's cameras, the sensors' imu).
@@ -121,6 +125,10 @@ DatasetInput ReadDataset(const VioOfflineArgs& args) {
   const std::vector<render::CameraConfig> cameras = render::ReadCameras(render_map, "cameras");
   bridge::YamlMap sensors_map(*sensors_params, scenario.file, "processes." + sensors_process + ".params");
   const sensors::SensorsConfig sensors_config = sensors::ReadSensorsConfig(sensors_map);
+  bridge::YamlMap vehicle_map = sensors_map.Map("vehicle");
+  std::string vehicle_name;
+  vehicle_map.Required("name", &vehicle_name);
+  const model::Vehicle vehicle = model::LoadVehicle(bridge::ReadFilePath(vehicle_map, "file", scenario.file));
   Eigen::Isometry3d X_BI = Eigen::Isometry3d::Identity();
   X_BI.linear() = sensors_config.imu.q_BI.toRotationMatrix();
   X_BI.translation() = sensors_config.imu.p_BI_m;
@@ -157,8 +165,21 @@ DatasetInput ReadDataset(const VioOfflineArgs& args) {
   if (!not_found.empty()) {
     throw DatasetError(in.scenario_path + ": no stereo camera on '" + *not_found.begin() + "' (--sub)");
   }
-  if (in.subs.empty())
+  if (in.subs.empty()) {
     throw DatasetError(in.scenario_path + ": no body-mounted stereo camera (baseline_m > 0)");
+  }
+  // The centre needs every joint: a sub-aircraft's origin is its joint (seed §III-A), so the estimated
+  // origins are the joints in W.
+  for (const SubAircraftInput& sub : in.subs) {
+    for (const model::SubAircraft& s : vehicle.sub_aircraft) {
+      if (sub.body == vehicle_name + "/" + s.name) in.joints_P.push_back(s.joint_P_m);
+    }
+  }
+  if (in.joints_P.size() == vehicle.sub_aircraft.size() && in.joints_P.size() >= 2) {
+    in.platform_truth_topic = "/" + vehicle_name + "/odom";
+  } else {
+    in.joints_P.clear();
+  }
   return in;
 }
 
@@ -219,6 +240,49 @@ bridge::StampedPose Stamped(int64_t t_ns, const Eigen::Isometry3d& X) {
   pose.orientation_xyzw[2] = q.z();
   pose.orientation_xyzw[3] = q.w();
   return pose;
+}
+
+std::vector<vio::StampedPosition> Positions(const std::vector<bridge::StampedPose>& poses) {
+  std::vector<vio::StampedPosition> positions;
+  for (const bridge::StampedPose& p : poses)
+    positions.push_back({p.time_ns, {p.position[0], p.position[1], p.position[2]}});
+  return positions;
+}
+
+std::vector<vio::StampedIsometry> Isometries(const std::vector<bridge::StampedPose>& poses) {
+  std::vector<vio::StampedIsometry> out;
+  for (const bridge::StampedPose& p : poses) {
+    vio::StampedIsometry s;
+    s.t_ns = p.time_ns;
+    s.X.linear() = Eigen::Quaterniond(p.orientation_xyzw[3], p.orientation_xyzw[0], p.orientation_xyzw[1],
+                                      p.orientation_xyzw[2])
+                       .normalized()
+                       .toRotationMatrix();
+    s.X.translation() = Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
+    out.push_back(s);
+  }
+  return out;
+}
+
+// The errors every trajectory gets in vio.json: ATE as it is and aligned, and RPE over one second.
+constexpr int64_t kRpeDelta_ns = 1'000'000'000;
+
+nlohmann::json ErrorsJson(const std::vector<bridge::StampedPose>& estimate,
+                          const std::vector<bridge::StampedPose>& truth, vio::AbsoluteTrajectoryError* ate,
+                          vio::AbsoluteTrajectoryError* ate_aligned) {
+  *ate = vio::ComputeAte(Positions(estimate), Positions(truth), false);
+  *ate_aligned = vio::ComputeAte(Positions(estimate), Positions(truth), true);
+  const vio::RelativePoseError rpe = vio::ComputeRpe(Isometries(estimate), Isometries(truth), kRpeDelta_ns);
+  const auto ate_json = [](const vio::AbsoluteTrajectoryError& e) {
+    return nlohmann::json{
+        {"rmse_m", e.rmse_m}, {"mean_m", e.mean_m}, {"max_m", e.max_m}, {"matched", e.matched}};
+  };
+  return {{"ate", ate_json(*ate)},
+          {"ate_aligned", ate_json(*ate_aligned)},
+          {"rpe_1s",
+           {{"translation_rmse_m", rpe.translation_rmse_m},
+            {"rotation_rmse_deg", rpe.rotation_rmse_deg},
+            {"pairs", rpe.pairs}}}};
 }
 
 SubAircraftResult Estimate(const std::string& bag_path, const SubAircraftInput& sub) {
@@ -339,15 +403,42 @@ SubAircraftResult Estimate(const std::string& bag_path, const SubAircraftInput& 
   drain(true);
 
   out.statistics = estimator.statistics();
-  std::vector<vio::StampedPosition> estimate_positions, truth_positions;
-  for (const auto& p : out.estimate)
-    estimate_positions.push_back({p.time_ns, {p.position[0], p.position[1], p.position[2]}});
-  for (const auto& p : out.truth)
-    truth_positions.push_back({p.time_ns, {p.position[0], p.position[1], p.position[2]}});
-  out.ate = vio::ComputeAte(estimate_positions, truth_positions, false);
-  out.ate_aligned = vio::ComputeAte(estimate_positions, truth_positions, true);
   out.sequence_s = first_ns < 0 ? 0.0 : static_cast<double>(last_ns - first_ns) * 1e-9;
   out.wall_s = Milliseconds(start) * 1e-3;
+  return out;
+}
+
+struct CentreResult {
+  std::vector<bridge::StampedPose> estimate, truth;
+};
+
+// The platform pose at each stamp every sub-aircraft has an estimate for: the rigid transform that best
+// carries the joints d_i (in P) onto the estimated joints (in W), X_WP = UmeyamaRigid(d, J); its truth from
+// the platform's ground-truth odometry.
+CentreResult EstimateCentre(const DatasetInput& in, const std::vector<SubAircraftResult>& results) {
+  CentreResult out;
+  std::map<int64_t, std::vector<Eigen::Vector3d>> joints_W;
+  for (const SubAircraftResult& r : results) {
+    for (const bridge::StampedPose& p : r.estimate) {
+      joints_W[p.time_ns].emplace_back(p.position[0], p.position[1], p.position[2]);
+    }
+  }
+  for (const auto& [t_ns, joints] : joints_W) {
+    if (joints.size() == in.joints_P.size())
+      out.estimate.push_back(Stamped(t_ns, vio::UmeyamaRigid(in.joints_P, joints)));
+  }
+  std::set<int64_t> stamps;
+  for (const bridge::StampedPose& p : out.estimate) stamps.insert(p.time_ns);
+  const bridge::BagReader bag(in.bag_path);
+  nav_msgs::Odometry odometry;
+  std::string error;
+  bag.ForEach({in.platform_truth_topic}, [&](const bridge::BagMessage& m) {
+    if (!bridge::Decode(m.bytes, &odometry, &error))
+      throw DatasetError(in.bag_path + ": " + m.topic + ": " + error);
+    const int64_t t_ns = bridge::ToNanoseconds(odometry.header.stamp);
+    if (stamps.count(t_ns) != 0) out.truth.push_back(Stamped(t_ns, PoseOf(odometry.pose.pose)));
+    return true;
+  });
   return out;
 }
 
@@ -358,8 +449,20 @@ void WriteTum(const std::string& path, const std::vector<bridge::StampedPose>& p
   if (!file) throw std::runtime_error(path + ": cannot write");
 }
 
-nlohmann::json AteJson(const vio::AbsoluteTrajectoryError& ate) {
-  return {{"rmse_m", ate.rmse_m}, {"mean_m", ate.mean_m}, {"max_m", ate.max_m}, {"matched", ate.matched}};
+// Writes <out_dir>/<body with _>_estimate.tum and _truth.tum and returns the body's entry of vio.json: the
+// file names and its errors (ATE as it is and aligned, RPE over 1 s), whose ATEs it also hands back.
+nlohmann::json WriteTrajectory(const std::string& out_dir, const std::string& body,
+                               const std::vector<bridge::StampedPose>& estimate,
+                               const std::vector<bridge::StampedPose>& truth,
+                               vio::AbsoluteTrajectoryError* ate, vio::AbsoluteTrajectoryError* ate_aligned) {
+  std::string stem = body;
+  for (char& c : stem) c = c == '/' ? '_' : c;
+  WriteTum((fs::path(out_dir) / (stem + "_estimate.tum")).string(), estimate);
+  WriteTum((fs::path(out_dir) / (stem + "_truth.tum")).string(), truth);
+  nlohmann::json entry = ErrorsJson(estimate, truth, ate, ate_aligned);
+  entry["estimate_tum"] = stem + "_estimate.tum";
+  entry["truth_tum"] = stem + "_truth.tum";
+  return entry;
 }
 
 int Run(const VioOfflineArgs& args) {
@@ -390,37 +493,41 @@ int Run(const VioOfflineArgs& args) {
 
   nlohmann::json report = {{"mode", args.mode}, {"bag", in.bag_path}, {"scenario", in.scenario_path}};
   std::printf("iapsim vio --mode %s on %s\n", args.mode.c_str(), in.bag_path.c_str());
-  std::printf("  %-10s %7s %9s %8s %12s %12s %18s\n", "body", "frames", "keyframes", "failures", "ATE RMSE m",
+  std::printf("  %-12s %7s %9s %8s %12s %12s %18s\n", "body", "frames", "keyframes", "failures", "ATE RMSE m",
               "aligned m", "ms/frame fe|solve");
   double sequence_s = 0.0;
   for (std::size_t i = 0; i < in.subs.size(); ++i) {
     const SubAircraftInput& sub = in.subs[i];
     const SubAircraftResult& r = results[i];
-    std::string stem = sub.body;
-    for (char& c : stem) c = c == '/' ? '_' : c;
-    WriteTum((fs::path(out_dir) / (stem + "_estimate.tum")).string(), r.estimate);
-    WriteTum((fs::path(out_dir) / (stem + "_truth.tum")).string(), r.truth);
     const double per_frame = r.frames > 0 ? 1.0 / r.frames : 0.0;
-    report["sub_aircraft"][sub.body] = {{"frames", r.frames},
-                                        {"keyframes", r.statistics.keyframes},
-                                        {"failures", r.statistics.failures},
-                                        {"ranges_used", r.statistics.ranges_used},
-                                        {"last_failure", r.statistics.last_failure},
-                                        {"ate", AteJson(r.ate)},
-                                        {"ate_aligned", AteJson(r.ate_aligned)},
-                                        {"ms_per_frame",
-                                         {{"decode", r.decode_ms * per_frame},
-                                          {"front_end", r.front_end_ms * per_frame},
-                                          {"solve", r.statistics.solve_ms * per_frame},
-                                          {"marginalisation", r.statistics.marginalisation_ms * per_frame}}},
-                                        {"sequence_s", r.sequence_s},
-                                        {"wall_s", r.wall_s},
-                                        {"estimate_tum", stem + "_estimate.tum"},
-                                        {"truth_tum", stem + "_truth.tum"}};
-    std::printf("  %-10s %7d %9d %8d %12.4f %12.4f %8.1f|%-8.1f\n", sub.body.c_str(), r.frames,
-                r.statistics.keyframes, r.statistics.failures, r.ate.rmse_m, r.ate_aligned.rmse_m,
+    vio::AbsoluteTrajectoryError ate, ate_aligned;
+    nlohmann::json& entry = report["sub_aircraft"][sub.body];
+    entry = WriteTrajectory(out_dir, sub.body, r.estimate, r.truth, &ate, &ate_aligned);
+    entry["frames"] = r.frames;
+    entry["keyframes"] = r.statistics.keyframes;
+    entry["failures"] = r.statistics.failures;
+    entry["ranges_used"] = r.statistics.ranges_used;
+    entry["last_failure"] = r.statistics.last_failure;
+    entry["ms_per_frame"] = {{"decode", r.decode_ms * per_frame},
+                             {"front_end", r.front_end_ms * per_frame},
+                             {"solve", r.statistics.solve_ms * per_frame},
+                             {"marginalisation", r.statistics.marginalisation_ms * per_frame}};
+    entry["sequence_s"] = r.sequence_s;
+    entry["wall_s"] = r.wall_s;
+    std::printf("  %-12s %7d %9d %8d %12.4f %12.4f %8.1f|%-8.1f\n", sub.body.c_str(), r.frames,
+                r.statistics.keyframes, r.statistics.failures, ate.rmse_m, ate_aligned.rmse_m,
                 r.front_end_ms * per_frame, r.statistics.solve_ms * per_frame);
     sequence_s = std::max(sequence_s, r.sequence_s);
+  }
+  if (!in.joints_P.empty()) {
+    const std::string centre =
+        in.platform_truth_topic.substr(1, in.platform_truth_topic.rfind('/') - 1) + "/platform";
+    const CentreResult c = EstimateCentre(in, results);
+    vio::AbsoluteTrajectoryError ate, ate_aligned;
+    report["centre"] = WriteTrajectory(out_dir, centre, c.estimate, c.truth, &ate, &ate_aligned);
+    report["centre"]["body"] = centre;
+    std::printf("  %-12s %7zu %9s %8s %12.4f %12.4f   (from the sub-aircraft and the joints)\n",
+                centre.c_str(), c.estimate.size(), "", "", ate.rmse_m, ate_aligned.rmse_m);
   }
   report["wall_s"] = wall_s;
   report["real_time_factor"] = wall_s > 0.0 ? sequence_s / wall_s : 0.0;

@@ -3,6 +3,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 namespace iapsim::vio {
 
@@ -57,6 +58,35 @@ AbsoluteTrajectoryError ComputeAte(const std::vector<StampedPosition>& estimate,
   }
   out.rmse_m = std::sqrt(sum_squares / a.size());
   out.mean_m = sum / a.size();
+  return out;
+}
+
+RelativePoseError ComputeRpe(const std::vector<StampedIsometry>& estimate,
+                             const std::vector<StampedIsometry>& truth, std::int64_t delta_ns) {
+  std::map<std::int64_t, std::pair<Eigen::Isometry3d, Eigen::Isometry3d>> matched;  // stamp -> (P, Q)
+  std::map<std::int64_t, Eigen::Isometry3d> truth_at;
+  for (const StampedIsometry& q : truth) truth_at[q.t_ns] = q.X;
+  for (const StampedIsometry& p : estimate) {
+    const auto q = truth_at.find(p.t_ns);
+    if (q != truth_at.end()) matched[p.t_ns] = {p.X, q->second};
+  }
+  RelativePoseError out;
+  double sum_translation = 0.0, sum_rotation = 0.0;
+  for (const auto& [t_i, poses_i] : matched) {
+    const auto j = matched.find(t_i + delta_ns);
+    if (j == matched.end()) continue;
+    const Eigen::Isometry3d motion_estimate = poses_i.first.inverse() * j->second.first;
+    const Eigen::Isometry3d motion_truth = poses_i.second.inverse() * j->second.second;
+    const Eigen::Isometry3d E = motion_truth.inverse() * motion_estimate;
+    const double angle_deg = Eigen::AngleAxisd(E.rotation()).angle() * 180.0 / M_PI;
+    sum_translation += E.translation().squaredNorm();
+    sum_rotation += angle_deg * angle_deg;
+    ++out.pairs;
+  }
+  if (out.pairs > 0) {
+    out.translation_rmse_m = std::sqrt(sum_translation / out.pairs);
+    out.rotation_rmse_deg = std::sqrt(sum_rotation / out.pairs);
+  }
   return out;
 }
 

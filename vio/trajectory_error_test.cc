@@ -40,5 +40,27 @@ TEST(TrajectoryErrorTest, UmeyamaAlignmentRemovesARigidTransform) {
   EXPECT_GT(ComputeAte(estimate, truth, false).rmse_m, 1.0);
 }
 
+// By hand: the truth moves 1 m along x per second; the estimate moves 1.1 m per second and is turned 90°
+// about z (a frame RPE must not care about): every 1 s pair has a translation error of 0.1 m and no rotation
+// error. Pairs need both stamps matched: 4 stamps, 3 pairs.
+TEST(TrajectoryErrorTest, RpeOnAHandComputablePair) {
+  std::vector<StampedIsometry> truth, estimate;
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(M_PI / 2.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (int k = 0; k < 4; ++k) {
+    StampedIsometry q, p;
+    q.t_ns = p.t_ns = k * 1'000'000'000LL;
+    q.X.translation() = Eigen::Vector3d(1.0 * k, 0, 0);
+    p.X.linear() = turn;
+    p.X.translation() = turn * Eigen::Vector3d(1.1 * k, 0, 0) + Eigen::Vector3d(5, 5, 5);
+    truth.push_back(q);
+    estimate.push_back(p);
+  }
+  const RelativePoseError rpe = ComputeRpe(estimate, truth, 1'000'000'000LL);
+  EXPECT_EQ(rpe.pairs, 3u);
+  EXPECT_NEAR(rpe.translation_rmse_m, 0.1, 1e-12);
+  EXPECT_NEAR(rpe.rotation_rmse_deg, 0.0, 1e-9);
+  EXPECT_EQ(ComputeRpe(estimate, truth, 2'500'000'000LL).pairs, 0u);
+}
+
 }  // namespace
 }  // namespace iapsim::vio

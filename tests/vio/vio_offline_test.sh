@@ -30,8 +30,13 @@ for name, sub in subs.items():
     assert sub["ate"]["rmse_m"] < 0.03, (name, sub["ate"])
     assert sub["ate_aligned"]["rmse_m"] <= sub["ate"]["rmse_m"] + 1e-12, (name, sub)
     assert sub["ms_per_frame"]["solve"] > 0, (name, sub)
+    assert sub["rpe_1s"]["pairs"] == 11, (name, sub["rpe_1s"])   # stamps 0..0.5 s with a partner 1 s later
+    assert sub["rpe_1s"]["translation_rmse_m"] < 0.03, (name, sub["rpe_1s"])
+centre = report["centre"]                                       # the platform, from the three and the joints
+assert centre["body"] == "iap/platform" and centre["ate"]["matched"] == 31, centre
+assert centre["ate"]["rmse_m"] < 0.03, centre
 PY
-for f in iap_sub1_estimate.tum iap_sub1_truth.tum iap_sub3_estimate.tum; do
+for f in iap_sub1_estimate.tum iap_sub1_truth.tum iap_sub3_estimate.tum iap_platform_estimate.tum iap_platform_truth.tum; do
   [ "$(grep -vc '^#' "$work/vio/$f")" -eq 31 ] || fail "$f: $(wc -l < "$work/vio/$f") lines"
 done
 
@@ -42,7 +47,7 @@ for sub in iap_sub1 iap_sub2 iap_sub3; do
   cmp -s "$work/vio/${sub}_estimate.tum" "$work/again/${sub}_estimate.tum" || fail "$sub differs between two runs"
 done
 cmp -s "$work/vio/iap_sub2_estimate.tum" "$work/sub2/iap_sub2_estimate.tum" || fail "sub2 alone differs"
-for other in iap_sub1 iap_sub3; do
+for other in iap_sub1 iap_sub3 iap_platform; do
   [ ! -e "$work/sub2/${other}_estimate.tum" ] || fail "--sub iap/sub2 estimated $other too"
 done
 
