@@ -58,7 +58,9 @@ import json, sys
 report = json.load(open(sys.argv[1]))
 assert report["mode"] == "vio_uwb", report["mode"]
 for name, sub in report["sub_aircraft"].items():
-    assert sub["ranges_used"] == 4 * 76, (name, sub["ranges_used"])  # 4 anchors at 50 Hz over [0, 1.5] s
+    # 4 anchors at 50 Hz over [0, 1.5] s: all before the last frame join the estimate; those stamped with the
+    # last frame itself only when the bag holds them before that frame's images
+    assert 4 * 75 <= sub["ranges_used"] <= 4 * 76, (name, sub["ranges_used"])
     assert sub["failures"] == 0 and sub["ate"]["rmse_m"] < 0.03, (name, sub)
 PY
 
