@@ -109,7 +109,7 @@ struct Estimator::Impl {
 
   std::deque<std::unique_ptr<WindowFrame>> window;
   std::map<std::uint64_t, Track> tracks;
-  std::set<std::uint64_t> rejected;  ///< outlier feature ids, never used again
+  std::set<std::uint64_t> rejected;  ///< outlier feature ids still tracked, not used again
   std::shared_ptr<const MarginalPrior> prior;
   std::optional<InitialPrior> initial_prior;
   std::optional<std::pair<NavState, ImuBiases>> given_initial_state;
@@ -173,6 +173,10 @@ struct Estimator::Impl {
 
   // --- features ----------------------------------------------------------------------------------------
   void AddObservations(std::uint64_t serial, const StereoFrame& frame) {
+    // A tracker never gives an id back once it lost it, and ids grow: outliers older than this frame's
+    // oldest feature can no longer come, and are forgotten (the set stays small on a long run).
+    if (!frame.features.empty())
+      rejected.erase(rejected.begin(), rejected.lower_bound(frame.features.front().id));
     for (const TrackedFeature& f : frame.features) {
       if (rejected.count(f.id) != 0) continue;
       Observation observation{rig.Normalised(f.uv_left), std::nullopt};
