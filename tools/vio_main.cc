@@ -1,5 +1,7 @@
 // iapsim_vio_offline: `iapsim vio` (tools/vio_offline.h), which `iapsim vio ...` execs.
-//   iapsim vio RUN_DIR|BAG [--mode vio|vio_uwb] [--scenario S] [--sub BODY]... [--out DIR]
+//   iapsim vio RUN_DIR|BAG [--mode vio|vio_uwb|virpo] [--scenario S] [--sub BODY]... [--config F] [--set
+//   K=V]...
+//              [--out DIR]
 
 #include <malloc.h>
 
@@ -21,14 +23,19 @@ int main(int argc, char** argv) {
   app.add_option("input", args.input, "a run directory (run.bag, scenario.resolved.yaml) or a bag")
       ->required()
       ->check(CLI::ExistingPath);
-  app.add_option(
-         "--mode", args.mode,
-         "estimator: vio (the paper's VINS baseline) or vio_uwb (plus ranges to the scenario's anchors)")
+  app.add_option("--mode", args.mode,
+                 "estimator: vio (the paper's VINS baseline), vio_uwb (plus ranges to the scenario's "
+                 "anchors) or virpo "
+                 "(plus the attitude estimate and the other sub-aircraft through the platform, eq. 22)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"vio", "vio_uwb"}));
+      ->check(CLI::IsMember({"vio", "vio_uwb", "virpo"}));
   app.add_option("--scenario", args.scenario, "with a bag: the scenario it was recorded from")
       ->check(CLI::ExistingFile);
   app.add_option("--sub", args.sub_aircraft, "a body to estimate, e.g. iap/sub1 (repeatable; default: all)");
+  app.add_option("--config", args.config,
+                 "the estimator's settings: tracker, estimator, uwb and virpo keys (vio/config.h)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--set", args.overrides, "override a setting: KEY=VALUE, e.g. virpo.sigma_link_m=0.02");
   app.add_option("--out", args.out_dir,
                  "where the TUM files and vio.json go (default: beside the bag, vio_<mode>)");
   try {

@@ -12,6 +12,8 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -29,6 +31,7 @@
 #include "render/camera_rig.h"
 #include "render/image.h"
 #include "sensors/sensor_config.h"
+#include "vio/config.h"
 #include "vio/estimator.h"
 #include "vio/stereo_tracker.h"
 #include "vio/trajectory_error.h"
@@ -59,6 +62,10 @@ struct SubAircraftInput {
   std::string uwb_topic;
   std::map<std::string, Eigen::Vector3d> anchors_W;
   double range_sigma_m = 0.0;
+  // virpo: the flight controller's attitude (/<body>/attitude, R_WB) and the joint d_i in P; the joint is the
+  // body's origin (seed §III-A)
+  std::string attitude_topic;
+  std::optional<Eigen::Vector3d> joint_P;
 };
 
 struct TruthSample {
@@ -70,7 +77,7 @@ struct TruthSample {
 struct SubAircraftResult {
   std::vector<bridge::StampedPose> estimate, truth;  // of the body B, at the image stamps
   vio::EstimatorStatistics statistics;
-  double decode_ms = 0.0, front_end_ms = 0.0, wall_s = 0.0, sequence_s = 0.0;
+  double decode_ms = 0.0, front_end_ms = 0.0, sequence_s = 0.0;
   int frames = 0;
 };
 
@@ -96,7 +103,7 @@ std::optional<YAML::Node> FindParams(const bridge::Scenario& scenario, const std
   return std::nullopt;
 }
 
-DatasetInput ReadDataset(const VioOfflineArgs& args) {
+DatasetInput ReadDataset(const VioOfflineArgs& args, const vio::VioConfig& config) {
   DatasetInput in;
   if (fs::is_directory(args.input)) {
     in.bag_path = (fs::path(args.input) / "run.bag").string();
@@ -150,15 +157,19 @@ DatasetInput ReadDataset(const VioOfflineArgs& args) {
     sub.left_info_topic = camera.TopicNamespace(0) + "/camera_info";
     sub.imu_topic = "/" + camera.mount.body + "/imu";
     sub.truth_topic = "/" + camera.mount.body + "/odom";
-    if (args.mode == "vio_uwb") {
+    if (args.mode != "vio") {
       if (sensors_config.uwb.anchors.empty()) {
-        throw DatasetError(in.scenario_path + ": --mode vio_uwb needs UWB anchors (processes." +
+        throw DatasetError(in.scenario_path + ": --mode " + args.mode + " needs UWB anchors (processes." +
                            sensors_process + ".params.uwb.anchors or anchors_file)");
       }
       sub.uwb_topic = "/" + camera.mount.body + "/uwb";
       for (const sensors::UwbAnchor& anchor : sensors_config.uwb.anchors)
         sub.anchors_W[anchor.name] = anchor.p_WA_m;
-      sub.range_sigma_m = sensors_config.uwb.noise.sigma_m;
+      sub.range_sigma_m = config.range_sigma_m.value_or(sensors_config.uwb.noise.sigma_m);
+    }
+    if (args.mode == "virpo") sub.attitude_topic = "/" + camera.mount.body + "/attitude";
+    for (const model::SubAircraft& s : vehicle.sub_aircraft) {
+      if (sub.body == vehicle_name + "/" + s.name) sub.joint_P = s.joint_P_m;
     }
     in.subs.push_back(sub);
   }
@@ -168,17 +179,17 @@ DatasetInput ReadDataset(const VioOfflineArgs& args) {
   if (in.subs.empty()) {
     throw DatasetError(in.scenario_path + ": no body-mounted stereo camera (baseline_m > 0)");
   }
-  // The centre needs every joint: a sub-aircraft's origin is its joint (seed §III-A), so the estimated
-  // origins are the joints in W.
-  for (const SubAircraftInput& sub : in.subs) {
-    for (const model::SubAircraft& s : vehicle.sub_aircraft) {
-      if (sub.body == vehicle_name + "/" + s.name) in.joints_P.push_back(s.joint_P_m);
-    }
+  // VIRPO ties each sub-aircraft to the others through the platform; the centre needs every joint. A
+  // sub-aircraft's origin is its joint (seed §III-A), so the estimated origins are the joints in W.
+  std::size_t on_vehicle = 0;
+  for (const SubAircraftInput& sub : in.subs) on_vehicle += sub.joint_P.has_value();
+  if (args.mode == "virpo" && (on_vehicle != in.subs.size() || on_vehicle < 2)) {
+    throw DatasetError(in.scenario_path + ": --mode virpo needs two or more sub-aircraft of vehicle '" +
+                       vehicle_name + "' with stereo cameras (" + std::to_string(on_vehicle) + " given)");
   }
-  if (in.joints_P.size() == vehicle.sub_aircraft.size() && in.joints_P.size() >= 2) {
+  if (on_vehicle == vehicle.sub_aircraft.size() && on_vehicle == in.subs.size() && on_vehicle >= 2) {
+    for (const SubAircraftInput& sub : in.subs) in.joints_P.push_back(*sub.joint_P);
     in.platform_truth_topic = "/" + vehicle_name + "/odom";
-  } else {
-    in.joints_P.clear();
   }
   return in;
 }
@@ -187,16 +198,17 @@ DatasetInput ReadDataset(const VioOfflineArgs& args) {
 void CheckBag(const bridge::BagReader& bag, const SubAircraftInput& sub) {
   std::map<std::string, bridge::BagTopicInfo> topics;
   for (const bridge::BagTopicInfo& t : bag.Topics()) topics[t.topic] = t;
-  for (const std::string* topic :
-       {&sub.left_topic, &sub.right_topic, &sub.left_info_topic, &sub.imu_topic, &sub.truth_topic}) {
-    if (topics.count(*topic) != 0 && topics[*topic].count > 0) continue;
+  for (const std::string* topic : {&sub.left_topic, &sub.right_topic, &sub.left_info_topic, &sub.imu_topic,
+                                   &sub.truth_topic, &sub.attitude_topic}) {
+    if (topic->empty() || (topics.count(*topic) != 0 && topics[*topic].count > 0)) continue;
     std::string images;
     for (const auto& [name, info] : topics) {
       if (info.datatype == "sensor_msgs/CompressedImage") images += " " + name;
     }
     throw DatasetError(
         bag.path() + ": no messages on " + *topic + " (" + sub.body + "'s stereo camera '" + sub.camera.name +
-        "', its IMU and ground truth are needed); the bag's images:" + (images.empty() ? " none" : images));
+        "', its IMU, ground truth and, for virpo, attitude estimate are needed); the bag's images:" +
+        (images.empty() ? " none" : images));
   }
   std::optional<sensor_msgs::CameraInfo> info;
   std::string error;
@@ -285,54 +297,73 @@ nlohmann::json ErrorsJson(const std::vector<bridge::StampedPose>& estimate,
             {"pairs", rpe.pairs}}}};
 }
 
-SubAircraftResult Estimate(const std::string& bag_path, const SubAircraftInput& sub) {
-  const Clock::time_point start = Clock::now();
-  const bridge::BagReader bag(bag_path);
-  CheckBag(bag, sub);
-  SubAircraftResult out;
-  std::string error;
+// Ground truth by topic and stamp: each sub-aircraft's (its first state starts the estimate) and the
+// platform's.
+using Truth = std::map<std::string, std::map<int64_t, TruthSample>>;
 
-  std::map<int64_t, TruthSample> truth;
+Truth ReadTruth(const bridge::BagReader& bag, const DatasetInput& in) {
+  std::vector<std::string> topics;
+  for (const SubAircraftInput& sub : in.subs) topics.push_back(sub.truth_topic);
+  if (!in.platform_truth_topic.empty()) topics.push_back(in.platform_truth_topic);
+  Truth truth;
   nav_msgs::Odometry odometry;
-  bag.ForEach({sub.truth_topic}, [&](const bridge::BagMessage& m) {
+  std::string error;
+  bag.ForEach(topics, [&](const bridge::BagMessage& m) {
     if (!bridge::Decode(m.bytes, &odometry, &error))
-      throw DatasetError(bag_path + ": " + m.topic + ": " + error);
-    TruthSample& s = truth[bridge::ToNanoseconds(odometry.header.stamp)];
+      throw DatasetError(bag.path() + ": " + m.topic + ": " + error);
+    TruthSample& s = truth[m.topic][bridge::ToNanoseconds(odometry.header.stamp)];
     s.X_WB = PoseOf(odometry.pose.pose);
     s.v_WB_W = s.X_WB.linear() * bridge::FromMsg(odometry.twist.twist.linear);  // the twist is in B (ROS)
     s.w_WB_B = bridge::FromMsg(odometry.twist.twist.angular);
     return true;
   });
+  return truth;
+}
 
-  vio::StereoTracker tracker(sub.rig);
-  vio::EstimatorOptions options;
-  options.imu_noise = sub.imu_noise;
-  options.p_IT_m = sub.X_BI.inverse().translation();  // the tag at the body's origin, in I
-  vio::Estimator estimator(sub.rig, options);
+// One sub-aircraft's estimation during the pass over the bag.
+struct SubAircraftRun {
   struct PendingPair {
     std::vector<uint8_t> left, right;
+    bool Complete() const { return !left.empty() && !right.empty(); }
   };
-  std::map<int64_t, PendingPair> pairs;               // by stamp, until both eyes are in
-  std::deque<std::pair<int64_t, PendingPair>> ready;  // complete, waiting for the IMU to reach them
-  double last_imu_t_s = -1.0;
-  int64_t first_ns = -1, last_ns = 0;
+  const SubAircraftInput* input = nullptr;
+  const std::map<int64_t, TruthSample>* truth = nullptr;
+  vio::StereoTracker tracker;
+  vio::Estimator estimator;
+  std::vector<std::size_t> peer_index;   ///< by sub-aircraft: its index among this one's peers (virpo)
+  std::map<int64_t, PendingPair> pairs;  ///< by stamp, until the step of that stamp
+  /// IMU samples, attitudes and ranges in bag order, given to the estimator at its next frame
+  std::vector<std::function<void(vio::Estimator&)>> inputs;
+  double last_imu_t_s = -std::numeric_limits<double>::infinity();
+  double last_attitude_t_s = -std::numeric_limits<double>::infinity();
+  std::optional<vio::Estimate> newest;  ///< this step's estimate
+  SubAircraftResult result;
 
-  auto process = [&](int64_t t_ns, const PendingPair& pair) {
+  SubAircraftRun(const SubAircraftInput& sub, const vio::TrackerOptions& tracker_options,
+                 const vio::EstimatorOptions& options)
+      : input(&sub), tracker(sub.rig, tracker_options), estimator(sub.rig, options) {}
+
+  // Decodes and tracks the pair at t_ns, gives the estimator what came before it and the frame.
+  void Step(const std::string& bag_path, int64_t t_ns) {
+    const PendingPair& pair = pairs.at(t_ns);
+    const SubAircraftInput& sub = *input;
     const double t_s = static_cast<double>(t_ns) * 1e-9;
     Clock::time_point stage = Clock::now();
     const render::Image left = render::DecodeImage(pair.left, sub.left_topic);
     const render::Image right = render::DecodeImage(pair.right, sub.right_topic);
-    out.decode_ms += Milliseconds(stage);
+    result.decode_ms += Milliseconds(stage);
     stage = Clock::now();
     const vio::StereoFrame frame = tracker.Track(t_s, left, right);
-    out.front_end_ms += Milliseconds(stage);
-    if (out.frames == 0) {
-      const auto it = truth.find(t_ns);
-      if (it == truth.end()) {
+    result.front_end_ms += Milliseconds(stage);
+    for (const auto& give : inputs) give(estimator);
+    inputs.clear();
+    const auto truth_now = truth->find(t_ns);
+    if (result.frames == 0) {
+      if (truth_now == truth->end()) {
         throw DatasetError(bag_path + ": " + sub.truth_topic +
                            " has no ground truth at the first image's stamp " + std::to_string(t_s) + " s");
       }
-      const TruthSample& s = it->second;
+      const TruthSample& s = truth_now->second;
       vio::NavState initial;
       const Eigen::Isometry3d X_WI = s.X_WB * sub.X_BI;
       initial.p_WI_m = X_WI.translation();
@@ -340,72 +371,181 @@ SubAircraftResult Estimate(const std::string& bag_path, const SubAircraftInput& 
       initial.v_WI_W_mps = s.v_WB_W + s.X_WB.linear() * s.w_WB_B.cross(sub.X_BI.translation());
       estimator.SetInitialState(initial);
     }
-    const vio::Estimate e = estimator.AddFrame(frame);
+    newest = estimator.AddFrame(frame);
     Eigen::Isometry3d X_WI = Eigen::Isometry3d::Identity();
-    X_WI.linear() = e.state.q_WI.normalized().toRotationMatrix();
-    X_WI.translation() = e.state.p_WI_m;
-    out.estimate.push_back(Stamped(t_ns, X_WI * sub.X_BI.inverse()));
-    const auto it = truth.find(t_ns);
-    if (it != truth.end()) out.truth.push_back(Stamped(t_ns, it->second.X_WB));
-    ++out.frames;
-  };
-  auto drain = [&](bool all) {
-    while (!ready.empty() && (all || static_cast<double>(ready.front().first) * 1e-9 <= last_imu_t_s)) {
-      process(ready.front().first, ready.front().second);
-      ready.pop_front();
-    }
-  };
+    X_WI.linear() = newest->state.q_WI.normalized().toRotationMatrix();
+    X_WI.translation() = newest->state.p_WI_m;
+    result.estimate.push_back(Stamped(t_ns, X_WI * sub.X_BI.inverse()));
+    if (truth_now != truth->end()) result.truth.push_back(Stamped(t_ns, truth_now->second.X_WB));
+    ++result.frames;
+  }
+};
 
-  sensor_msgs::Imu imu;
-  sensor_msgs::CompressedImage image;
-  iapsim_msgs::UwbRanges ranges;
-  std::vector<std::string> topics{sub.imu_topic, sub.left_topic, sub.right_topic};
-  if (!sub.uwb_topic.empty()) topics.push_back(sub.uwb_topic);
-  bag.ForEach(topics, [&](const bridge::BagMessage& m) {
-    if (m.topic == sub.uwb_topic) {
-      if (!bridge::Decode(m.bytes, &ranges, &error) || ranges.peers.size() != ranges.ranges_m.size()) {
-        throw DatasetError(bag_path + ": " + m.topic + ": " +
-                           (error.empty() ? "peers and ranges_m differ in length" : error));
-      }
-      const double t_s = static_cast<double>(bridge::ToNanoseconds(ranges.header.stamp)) * 1e-9;
-      for (std::size_t i = 0; i < ranges.peers.size(); ++i) {
-        const auto anchor = sub.anchors_W.find(ranges.peers[i]);
-        if (anchor != sub.anchors_W.end())
-          estimator.AddRange(t_s, anchor->second, ranges.ranges_m[i], sub.range_sigma_m);
-      }
-      return true;
-    }
-    if (m.topic == sub.imu_topic) {
-      if (!bridge::Decode(m.bytes, &imu, &error))
-        throw DatasetError(bag_path + ": " + m.topic + ": " + error);
-      sensors::ImuSample sample;
-      sample.f_I_mps2 = bridge::FromMsg(imu.linear_acceleration);
-      sample.w_I_radps = bridge::FromMsg(imu.angular_velocity);
-      last_imu_t_s = static_cast<double>(bridge::ToNanoseconds(imu.header.stamp)) * 1e-9;
-      estimator.AddImu(last_imu_t_s, sample);
-      drain(false);
-      return true;
-    }
-    if (!bridge::Decode(m.bytes, &image, &error))
+// Feeds one bag message to the sub-aircraft it belongs to.
+void Dispatch(const bridge::BagMessage& m, const std::string& bag_path, SubAircraftRun* run) {
+  const SubAircraftInput& sub = *run->input;
+  std::string error;
+  const auto decode = [&](auto* message) {
+    if (!bridge::Decode(m.bytes, message, &error))
       throw DatasetError(bag_path + ": " + m.topic + ": " + error);
-    const int64_t t_ns = bridge::ToNanoseconds(image.header.stamp);
-    PendingPair& pair = pairs[t_ns];
-    (m.topic == sub.left_topic ? pair.left : pair.right) = image.data;
-    if (!pair.left.empty() && !pair.right.empty()) {
-      ready.emplace_back(t_ns, std::move(pair));
-      pairs.erase(t_ns);
-      if (first_ns < 0) first_ns = t_ns;
-      last_ns = t_ns;
+  };
+  if (m.topic == sub.imu_topic) {
+    sensor_msgs::Imu imu;
+    decode(&imu);
+    sensors::ImuSample sample;
+    sample.f_I_mps2 = bridge::FromMsg(imu.linear_acceleration);
+    sample.w_I_radps = bridge::FromMsg(imu.angular_velocity);
+    const double t_s = static_cast<double>(bridge::ToNanoseconds(imu.header.stamp)) * 1e-9;
+    run->last_imu_t_s = t_s;
+    run->inputs.push_back([t_s, sample](vio::Estimator& e) { e.AddImu(t_s, sample); });
+  } else if (m.topic == sub.attitude_topic) {
+    sensor_msgs::Imu attitude;
+    decode(&attitude);
+    const double t_s = static_cast<double>(bridge::ToNanoseconds(attitude.header.stamp)) * 1e-9;
+    run->last_attitude_t_s = t_s;
+    const Eigen::Quaterniond q_WI =
+        bridge::FromMsg(attitude.orientation).normalized() * Eigen::Quaterniond(sub.X_BI.linear());
+    run->inputs.push_back([t_s, q_WI](vio::Estimator& e) { e.AddAttitude(t_s, q_WI); });
+  } else if (m.topic == sub.uwb_topic) {
+    iapsim_msgs::UwbRanges ranges;
+    decode(&ranges);
+    if (ranges.peers.size() != ranges.ranges_m.size())
+      throw DatasetError(bag_path + ": " + m.topic + ": peers and ranges_m differ in length");
+    const double t_s = static_cast<double>(bridge::ToNanoseconds(ranges.header.stamp)) * 1e-9;
+    for (std::size_t i = 0; i < ranges.peers.size(); ++i) {
+      const auto anchor = sub.anchors_W.find(ranges.peers[i]);
+      if (anchor == sub.anchors_W.end()) continue;
+      const Eigen::Vector3d p_WA = anchor->second;
+      const double range = ranges.ranges_m[i], sigma = sub.range_sigma_m;
+      run->inputs.push_back([=](vio::Estimator& e) { e.AddRange(t_s, p_WA, range, sigma); });
     }
-    drain(false);
+  } else {
+    sensor_msgs::CompressedImage image;
+    decode(&image);
+    SubAircraftRun::PendingPair& pair = run->pairs[bridge::ToNanoseconds(image.header.stamp)];
+    (m.topic == sub.left_topic ? pair.left : pair.right) = image.data;
+  }
+}
+
+// The stamp of the next step, when it can be taken: the earliest complete pair of any sub-aircraft, once
+// every sub-aircraft's IMU (and attitude, for virpo) has reached it and each has its own pair there or has
+// moved past it (a frame the renderer dropped for one sub-aircraft does not hold the others). At the end of
+// the bag, whatever is left.
+std::optional<int64_t> NextStep(const std::vector<SubAircraftRun>& runs, bool end_of_bag) {
+  std::optional<int64_t> t_ns;
+  for (const SubAircraftRun& run : runs) {
+    for (const auto& [stamp, pair] : run.pairs) {
+      if (!pair.Complete()) continue;
+      if (!t_ns || stamp < *t_ns) t_ns = stamp;
+      break;
+    }
+  }
+  if (!t_ns || end_of_bag) return t_ns;
+  for (const SubAircraftRun& run : runs) {
+    const double t_s = static_cast<double>(*t_ns) * 1e-9;
+    if (run.last_imu_t_s < t_s) return std::nullopt;
+    if (!run.input->attitude_topic.empty() && run.last_attitude_t_s < t_s) return std::nullopt;
+    const auto here = run.pairs.find(*t_ns);
+    if ((here == run.pairs.end() || !here->second.Complete()) &&
+        run.pairs.upper_bound(*t_ns) == run.pairs.end())
+      return std::nullopt;
+  }
+  return t_ns;
+}
+
+// The options of each sub-aircraft's estimator: the user's, with its IMU's noise, the tag and joint at its
+// body's origin and, for virpo, the link to every other sub-aircraft.
+vio::EstimatorOptions OptionsFor(const DatasetInput& in, std::size_t i, const std::string& mode,
+                                 const vio::VioConfig& config) {
+  const SubAircraftInput& sub = in.subs[i];
+  vio::EstimatorOptions options = config.estimator;
+  options.imu_noise = sub.imu_noise;
+  options.p_IT_m = sub.X_BI.inverse().translation();  // the tag at the body's origin, in I
+  options.physical.p_IJ_m = sub.X_BI.inverse().translation();
+  if (mode == "virpo") {
+    for (std::size_t o = 0; o < in.subs.size(); ++o) {
+      if (o != i) options.physical.link_lengths_m.push_back((*sub.joint_P - *in.subs[o].joint_P).norm());
+    }
+  }
+  return options;
+}
+
+// Every sub-aircraft's estimation in one pass over the bag, in lockstep by image stamp: at each stamp the
+// sub-aircraft step in parallel (one thread each), each seeing the others' joints as they shared them after
+// the previous stamps (as processes exchanging odometry over the bus would, seed Fig. 4), so the result does
+// not depend on the threads' timing.
+std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const DatasetInput& in,
+                                           const std::string& mode, const vio::VioConfig& config,
+                                           const Truth& truth) {
+  std::vector<SubAircraftRun> runs;
+  runs.reserve(in.subs.size());
+  std::map<std::string, std::size_t> owner;  // topic → sub-aircraft
+  std::vector<std::string> topics;
+  for (std::size_t i = 0; i < in.subs.size(); ++i) {
+    const SubAircraftInput& sub = in.subs[i];
+    runs.emplace_back(sub, config.tracker, OptionsFor(in, i, mode, config));
+    runs.back().truth = &truth.at(sub.truth_topic);
+    for (std::size_t o = 0; o < in.subs.size(); ++o) runs.back().peer_index.push_back(o < i ? o : o - 1);
+    for (const std::string& topic :
+         {sub.imu_topic, sub.left_topic, sub.right_topic, sub.uwb_topic, sub.attitude_topic}) {
+      if (topic.empty()) continue;
+      owner[topic] = i;
+      topics.push_back(topic);
+    }
+  }
+  const auto step = [&](int64_t t_ns) {
+    std::vector<std::size_t> stepping;
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      runs[i].newest.reset();
+      const auto pair = runs[i].pairs.find(t_ns);
+      if (pair != runs[i].pairs.end() && pair->second.Complete()) stepping.push_back(i);
+    }
+    std::vector<std::exception_ptr> failures(runs.size());
+    std::vector<std::thread> threads;
+    for (std::size_t k = 1; k < stepping.size(); ++k) {
+      threads.emplace_back([&, i = stepping[k]] {
+        try {
+          runs[i].Step(in.bag_path, t_ns);
+        } catch (...) {
+          failures[i] = std::current_exception();
+        }
+      });
+    }
+    try {
+      if (!stepping.empty()) runs[stepping[0]].Step(in.bag_path, t_ns);
+    } catch (...) {
+      failures[stepping[0]] = std::current_exception();
+    }
+    for (std::thread& t : threads) t.join();
+    for (const std::exception_ptr& failure : failures) {
+      if (failure) std::rethrow_exception(failure);
+    }
+    for (SubAircraftRun& run : runs) run.pairs.erase(run.pairs.begin(), run.pairs.upper_bound(t_ns));
+    if (mode != "virpo") return;
+    for (std::size_t i : stepping) {
+      const vio::PeerJoint joint = vio::JointOf(*runs[i].newest, runs[i].input->X_BI.inverse().translation());
+      for (std::size_t o : stepping) {
+        if (o != i)
+          runs[o].estimator.AddPeerJoint(runs[o].peer_index[i], static_cast<double>(t_ns) * 1e-9, joint);
+      }
+    }
+  };
+  bag.ForEach(topics, [&](const bridge::BagMessage& m) {
+    Dispatch(m, in.bag_path, &runs[owner.at(m.topic)]);
+    while (const std::optional<int64_t> t_ns = NextStep(runs, false)) step(*t_ns);
     return true;
   });
-  drain(true);
+  while (const std::optional<int64_t> t_ns = NextStep(runs, true)) step(*t_ns);
 
-  out.statistics = estimator.statistics();
-  out.sequence_s = first_ns < 0 ? 0.0 : static_cast<double>(last_ns - first_ns) * 1e-9;
-  out.wall_s = Milliseconds(start) * 1e-3;
-  return out;
+  std::vector<SubAircraftResult> results;
+  for (SubAircraftRun& run : runs) {
+    run.result.statistics = run.estimator.statistics();
+    const auto& e = run.result.estimate;
+    run.result.sequence_s =
+        e.size() < 2 ? 0.0 : static_cast<double>(e.back().time_ns - e.front().time_ns) * 1e-9;
+    results.push_back(std::move(run.result));
+  }
+  return results;
 }
 
 struct CentreResult {
@@ -415,7 +555,8 @@ struct CentreResult {
 // The platform pose at each stamp every sub-aircraft has an estimate for: the rigid transform that best
 // carries the joints d_i (in P) onto the estimated joints (in W), X_WP = UmeyamaRigid(d, J); its truth from
 // the platform's ground-truth odometry.
-CentreResult EstimateCentre(const DatasetInput& in, const std::vector<SubAircraftResult>& results) {
+CentreResult EstimateCentre(const DatasetInput& in, const std::vector<SubAircraftResult>& results,
+                            const Truth& truth) {
   CentreResult out;
   std::map<int64_t, std::vector<Eigen::Vector3d>> joints_W;
   for (const SubAircraftResult& r : results) {
@@ -427,18 +568,12 @@ CentreResult EstimateCentre(const DatasetInput& in, const std::vector<SubAircraf
     if (joints.size() == in.joints_P.size())
       out.estimate.push_back(Stamped(t_ns, vio::UmeyamaRigid(in.joints_P, joints)));
   }
-  std::set<int64_t> stamps;
-  for (const bridge::StampedPose& p : out.estimate) stamps.insert(p.time_ns);
-  const bridge::BagReader bag(in.bag_path);
-  nav_msgs::Odometry odometry;
-  std::string error;
-  bag.ForEach({in.platform_truth_topic}, [&](const bridge::BagMessage& m) {
-    if (!bridge::Decode(m.bytes, &odometry, &error))
-      throw DatasetError(in.bag_path + ": " + m.topic + ": " + error);
-    const int64_t t_ns = bridge::ToNanoseconds(odometry.header.stamp);
-    if (stamps.count(t_ns) != 0) out.truth.push_back(Stamped(t_ns, PoseOf(odometry.pose.pose)));
-    return true;
-  });
+  const auto platform = truth.find(in.platform_truth_topic);
+  if (platform == truth.end()) return out;
+  for (const bridge::StampedPose& p : out.estimate) {
+    const auto it = platform->second.find(p.time_ns);
+    if (it != platform->second.end()) out.truth.push_back(Stamped(p.time_ns, it->second.X_WB));
+  }
   return out;
 }
 
@@ -466,29 +601,18 @@ nlohmann::json WriteTrajectory(const std::string& out_dir, const std::string& bo
 }
 
 int Run(const VioOfflineArgs& args) {
-  const DatasetInput in = ReadDataset(args);
+  const vio::VioConfig config = vio::LoadVioConfig(args.config, args.overrides);
+  const DatasetInput in = ReadDataset(args, config);
   const std::string out_dir = args.out_dir.empty()
                                   ? (fs::path(in.bag_path).parent_path() / ("vio_" + args.mode)).string()
                                   : args.out_dir;
   fs::create_directories(out_dir);
 
   const Clock::time_point start = Clock::now();
-  std::vector<SubAircraftResult> results(in.subs.size());
-  std::vector<std::exception_ptr> failures(in.subs.size());
-  std::vector<std::thread> threads;
-  for (std::size_t i = 0; i < in.subs.size(); ++i) {
-    threads.emplace_back([&, i] {
-      try {
-        results[i] = Estimate(in.bag_path, in.subs[i]);
-      } catch (...) {
-        failures[i] = std::current_exception();
-      }
-    });
-  }
-  for (std::thread& t : threads) t.join();
-  for (const std::exception_ptr& failure : failures) {
-    if (failure) std::rethrow_exception(failure);
-  }
+  const bridge::BagReader bag(in.bag_path);
+  for (const SubAircraftInput& sub : in.subs) CheckBag(bag, sub);
+  const Truth truth = ReadTruth(bag, in);
+  const std::vector<SubAircraftResult> results = EstimateAll(bag, in, args.mode, config, truth);
   const double wall_s = Milliseconds(start) * 1e-3;
 
   nlohmann::json report = {{"mode", args.mode}, {"bag", in.bag_path}, {"scenario", in.scenario_path}};
@@ -507,13 +631,14 @@ int Run(const VioOfflineArgs& args) {
     entry["keyframes"] = r.statistics.keyframes;
     entry["failures"] = r.statistics.failures;
     entry["ranges_used"] = r.statistics.ranges_used;
+    entry["attitude_constraints"] = r.statistics.attitude_constraints;
+    entry["kinematic_constraints"] = r.statistics.kinematic_constraints;
     entry["last_failure"] = r.statistics.last_failure;
     entry["ms_per_frame"] = {{"decode", r.decode_ms * per_frame},
                              {"front_end", r.front_end_ms * per_frame},
                              {"solve", r.statistics.solve_ms * per_frame},
                              {"marginalisation", r.statistics.marginalisation_ms * per_frame}};
     entry["sequence_s"] = r.sequence_s;
-    entry["wall_s"] = r.wall_s;
     std::printf("  %-12s %7d %9d %8d %12.4f %12.4f %8.1f|%-8.1f\n", sub.body.c_str(), r.frames,
                 r.statistics.keyframes, r.statistics.failures, ate.rmse_m, ate_aligned.rmse_m,
                 r.front_end_ms * per_frame, r.statistics.solve_ms * per_frame);
@@ -522,7 +647,7 @@ int Run(const VioOfflineArgs& args) {
   if (!in.joints_P.empty()) {
     const std::string centre =
         in.platform_truth_topic.substr(1, in.platform_truth_topic.rfind('/') - 1) + "/platform";
-    const CentreResult c = EstimateCentre(in, results);
+    const CentreResult c = EstimateCentre(in, results, truth);
     vio::AbsoluteTrajectoryError ate, ate_aligned;
     report["centre"] = WriteTrajectory(out_dir, centre, c.estimate, c.truth, &ate, &ate_aligned);
     report["centre"]["body"] = centre;

@@ -19,6 +19,8 @@ struct VioOfflineArgs {
   std::string mode = "vio";
   std::vector<std::string> sub_aircraft;  ///< bodies to estimate ("iap/sub1"); default: every stereo camera's
   std::string out_dir;                    ///< default: <input's folder>/vio_<mode>
+  std::string config;                     ///< the estimator's settings (vio/config.h); empty: defaults
+  std::vector<std::string> overrides;     ///< "virpo.sigma_attitude_rad=0.04" on top of them
 };
 
 /// 0 on success, 2 for a bad configuration or data set (the message names the file, topic or key), 1 when

@@ -28,6 +28,8 @@ struct WindowFrame {
   std::array<double, kSpeedBiasSize> speed_bias{};
   std::shared_ptr<ImuPreintegration> imu;  ///< from the previous window frame; null for the first
   bool keyframe = false;
+  Eigen::Vector3d w_I_radps = Eigen::Vector3d::Zero();  ///< the gyroscope at t_s (r_kv's lever arm)
+  std::optional<Eigen::Quaterniond> attitude_WI;        ///< the flight controller's R̂_WI at t_s (r_kq)
 
   NavState State() const {
     const Eigen::Isometry3d X = PoseFromBlock(pose.data());
@@ -114,6 +116,15 @@ struct Estimator::Impl {
   std::optional<InitialPrior> initial_prior;
   std::optional<std::pair<NavState, ImuBiases>> given_initial_state;
 
+  // VIRPO: the attitude estimates, each other sub-aircraft's shared joints by time, and the drift of each
+  // one's odometry (a Ceres block: δp, δψ) with its value after the last solve that used it.
+  std::deque<std::pair<double, Eigen::Quaterniond>> attitudes;
+  std::vector<std::map<double, PeerJoint>> peer_joints;
+  std::vector<std::array<double, kDriftSize>> drift;
+  std::vector<std::optional<Eigen::Vector4d>> drift_solved;
+  std::vector<Eigen::Vector3d> drift_centre;  ///< the peer's latest shared joint at the last solve
+  std::unique_ptr<ceres::LossFunction> kinematic_loss;
+
   std::deque<PendingRange> pending_ranges;
   std::vector<RangeMeasurement> ranges;
   std::deque<std::pair<double, sensors::ImuSample>> imu;
@@ -149,9 +160,45 @@ struct Estimator::Impl {
     pre->Integrate(to_t - t, SampleAt(to_t));
   }
 
-  void PruneImu() {
-    // Keep one sample at or before the last frame, for interpolation.
+  void PruneInputs() {
+    // Keep one sample at or before the last frame (the oldest window frame for peers), for interpolation.
     while (imu.size() > 1 && imu[1].first <= last_frame_t_s) imu.pop_front();
+    while (attitudes.size() > 1 && attitudes[1].first <= last_frame_t_s) attitudes.pop_front();
+    for (auto& joints : peer_joints) {
+      while (joints.size() > 1 && std::next(joints.begin())->first <= window.front()->t_s)
+        joints.erase(joints.begin());
+    }
+  }
+
+  // The flight controller's attitude at t: interpolated between the samples around it, else none.
+  std::optional<Eigen::Quaterniond> AttitudeAt(double t) const {
+    for (std::size_t k = 0; k < attitudes.size(); ++k) {
+      if (attitudes[k].first < t) continue;
+      if (attitudes[k].first == t) return attitudes[k].second;
+      if (k == 0) return std::nullopt;
+      const double a = (t - attitudes[k - 1].first) / (attitudes[k].first - attitudes[k - 1].first);
+      return attitudes[k - 1].second.slerp(a, attitudes[k].second);
+    }
+    return std::nullopt;
+  }
+
+  // A peer's joint at t: shared at t, interpolated between two shared around it, or carried from the last
+  // one by its velocity (see PhysicalConstraintOptions::max_peer_extrapolation_s).
+  std::optional<PeerJoint> PeerAt(std::size_t peer, double t) const {
+    const std::map<double, PeerJoint>& joints = peer_joints[peer];
+    const auto after = joints.lower_bound(t);
+    if (after != joints.end() && after->first == t) return after->second;
+    if (after != joints.end()) {
+      if (after == joints.begin()) return std::nullopt;
+      const auto before = std::prev(after);
+      const double a = (t - before->first) / (after->first - before->first);
+      return PeerJoint{(1.0 - a) * before->second.p_WJ_m + a * after->second.p_WJ_m,
+                       (1.0 - a) * before->second.v_WJ_W_mps + a * after->second.v_WJ_W_mps};
+    }
+    if (joints.empty() || t - joints.rbegin()->first > options.physical.max_peer_extrapolation_s)
+      return std::nullopt;
+    const PeerJoint& last = joints.rbegin()->second;
+    return PeerJoint{last.p_WJ_m + last.v_WJ_W_mps * (t - joints.rbegin()->first), last.v_WJ_W_mps};
   }
 
   // Ranges up to `t_s` join the newest keyframe through the IMU since it (window.back() is that keyframe and
@@ -294,6 +341,13 @@ struct Estimator::Impl {
       if (oldest_only && track.observations.begin()->first != oldest.serial) continue;
       VisualResiduals(track, frames, &residuals);
     }
+    for (const auto& frame : window) {
+      if (!frame->attitude_WI || (oldest_only && frame.get() != &oldest)) continue;
+      residuals.push_back(
+          {std::make_unique<AttitudeFactor>(*frame->attitude_WI, options.physical.sigma_attitude_rad),
+           nullptr,
+           {frame->pose.data()}});
+    }
     for (const RangeMeasurement& m : ranges) {
       const auto frame = frames.find(m.serial);
       if (frame == frames.end() || (oldest_only && m.serial != oldest.serial)) continue;
@@ -301,6 +355,50 @@ struct Estimator::Impl {
                                                          m.range.sigma_m, options.p_IT_m, g_W),
                            range_loss.get(),
                            {frame->second->pose.data(), frame->second->speed_bias.data()}});
+    }
+    return residuals;
+  }
+
+  // The same drift about another centre: Rz (x − c) + c + δp = Rz (x − c′) + c′ + δp′ with
+  // δp′ = δp + (Rz − I)(c′ − c). The solved value that anchors the continuous prior moves with it.
+  void MoveDriftCentre(std::size_t peer, const Eigen::Vector3d& centre) {
+    const auto move = [&](double* d) {
+      const Eigen::Matrix3d Rz = Eigen::AngleAxisd(d[3], Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      Eigen::Map<Eigen::Vector3d>{d} += (Rz - Eigen::Matrix3d::Identity()) * (centre - drift_centre[peer]);
+    };
+    move(drift[peer].data());
+    if (drift_solved[peer]) move(drift_solved[peer]->data());
+    drift_centre[peer] = centre;
+  }
+
+  // r_kp and r_kv of every window frame with each peer that shared its joint then, and each such peer's
+  // drift prior; the peers they involve are marked in `used`. Not marginalised: they tie the window to the
+  // other's drift, whose memory from one solve to the next is the continuous prior.
+  std::vector<Residual> PhysicalResiduals(std::vector<bool>* used) {
+    std::vector<Residual> residuals;
+    const PhysicalConstraintOptions& o = options.physical;
+    used->assign(peer_joints.size(), false);
+    for (std::size_t peer = 0; peer < peer_joints.size(); ++peer) {
+      if (peer_joints[peer].empty()) continue;
+      MoveDriftCentre(peer, peer_joints[peer].rbegin()->second.p_WJ_m);
+      for (const auto& frame : window) {
+        const std::optional<PeerJoint> joint = PeerAt(peer, frame->t_s);
+        if (!joint) continue;
+        residuals.push_back(
+            {std::make_unique<KinematicFactor>(o.p_IJ_m, frame->w_I_radps, *joint, drift_centre[peer],
+                                               o.link_lengths_m[peer], o.sigma_link_m, o.sigma_rate_radps),
+             kinematic_loss.get(),
+             {frame->pose.data(), frame->speed_bias.data(), drift[peer].data()}});
+        (*used)[peer] = true;
+      }
+      if (!(*used)[peer]) continue;
+      residuals.push_back(
+          {drift_solved[peer] ? std::make_unique<DriftPriorFactor>(
+                                    *drift_solved[peer], o.drift_step_position_m, o.drift_step_yaw_rad)
+                              : std::make_unique<DriftPriorFactor>(
+                                    Eigen::Vector4d::Zero(), o.drift_prior_position_m, o.drift_prior_yaw_rad),
+           nullptr,
+           {drift[peer].data()}});
     }
     return residuals;
   }
@@ -331,6 +429,12 @@ struct Estimator::Impl {
     const auto start = std::chrono::steady_clock::now();
     RepropagateWhereBiasesMoved();
     std::vector<Residual> residuals = Residuals(false);
+    std::vector<bool> peers_used;
+    for (Residual& r : PhysicalResiduals(&peers_used)) {
+      statistics.kinematic_constraints += r.cost->num_residuals() == 2;
+      residuals.push_back(std::move(r));
+    }
+    for (const auto& frame : window) statistics.attitude_constraints += frame->attitude_WI.has_value();
     ceres::Problem::Options problem_options;
     problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -351,6 +455,9 @@ struct Estimator::Impl {
     solver.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
     ceres::Solve(solver, &problem, &summary);
+    for (std::size_t peer = 0; peer < drift.size(); ++peer) {
+      if (peers_used[peer]) drift_solved[peer] = Eigen::Vector4d(drift[peer].data());
+    }
     statistics.solve_ms += Milliseconds(start);
   }
 
@@ -453,15 +560,22 @@ struct Estimator::Impl {
   }
 
   // --- lifecycle ---------------------------------------------------------------------------------------
+  std::unique_ptr<WindowFrame> NewFrame(double t_s) {
+    auto frame = std::make_unique<WindowFrame>();
+    frame->serial = next_serial++;
+    frame->t_s = t_s;
+    frame->w_I_radps = SampleAt(t_s).w_I_radps;
+    frame->attitude_WI = AttitudeAt(t_s);
+    return frame;
+  }
+
   void Start(double t_s, const NavState& state, const ImuBiases& biases, const StatePriorSigmas& sigmas) {
     window.clear();
     tracks.clear();
     rejected.clear();
     ranges.clear();
     prior.reset();
-    auto frame = std::make_unique<WindowFrame>();
-    frame->serial = next_serial++;
-    frame->t_s = t_s;
+    std::unique_ptr<WindowFrame> frame = NewFrame(t_s);
     frame->keyframe = true;
     frame->Set(state, biases);
     initial_prior = InitialPrior{frame->serial, state, biases, sigmas};
@@ -514,7 +628,8 @@ struct Estimator::Impl {
 
   Estimate Newest(bool keyframe, int features) const {
     const WindowFrame& f = *window.back();
-    return {f.t_s, f.State(), f.Biases(), keyframe, false, features};
+    return {
+        f.t_s, f.State(), f.Biases(), keyframe, false, features, f.w_I_radps - f.Biases().gyroscope_radps};
   }
 };
 
@@ -527,6 +642,17 @@ Estimator::Estimator(const StereoRig& rig, const EstimatorOptions& options)
   impl_->g_W = Eigen::Vector3d(0.0, 0.0, options.gravity_mps2);
   impl_->loss = std::make_unique<ceres::CauchyLoss>(options.robust_loss_sigmas);
   impl_->range_loss = std::make_unique<ceres::HuberLoss>(options.range_huber_sigmas);
+  impl_->kinematic_loss = std::make_unique<ceres::HuberLoss>(options.physical.huber_sigmas);
+  const std::size_t peers = options.physical.link_lengths_m.size();
+  impl_->peer_joints.resize(peers);
+  impl_->drift.assign(peers, {0.0, 0.0, 0.0, 0.0});
+  impl_->drift_solved.resize(peers);
+  impl_->drift_centre.assign(peers, Eigen::Vector3d::Zero());
+}
+
+PeerJoint JointOf(const Estimate& estimate, const Eigen::Vector3d& p_IJ_m) {
+  const NavState& s = estimate.state;
+  return {s.p_WI_m + s.q_WI * p_IJ_m, s.v_WI_W_mps + s.q_WI * estimate.w_I_radps.cross(p_IJ_m)};
 }
 
 Estimator::~Estimator() = default;
@@ -545,6 +671,33 @@ void Estimator::AddImu(double t_s, const sensors::ImuSample& sample) {
     throw std::invalid_argument(message.str());
   }
   impl_->imu.emplace_back(t_s, sample);
+}
+
+void Estimator::AddAttitude(double t_s, const Eigen::Quaterniond& q_WI) {
+  if ((!impl_->attitudes.empty() && !(t_s > impl_->attitudes.back().first)) || !q_WI.coeffs().allFinite()) {
+    std::ostringstream message;
+    message << "estimator: the attitude at t = " << t_s << " s must be finite and after the previous one";
+    throw std::invalid_argument(message.str());
+  }
+  impl_->attitudes.emplace_back(t_s, q_WI.normalized());
+}
+
+void Estimator::AddPeerJoint(std::size_t peer, double t_s, const PeerJoint& joint) {
+  if (peer >= impl_->peer_joints.size()) {
+    std::ostringstream message;
+    message << "estimator: peer " << peer << " has no link length (options.physical.link_lengths_m has "
+            << impl_->peer_joints.size() << ")";
+    throw std::invalid_argument(message.str());
+  }
+  std::map<double, PeerJoint>& joints = impl_->peer_joints[peer];
+  if ((!joints.empty() && !(t_s > joints.rbegin()->first)) || !joint.p_WJ_m.allFinite() ||
+      !joint.v_WJ_W_mps.allFinite()) {
+    std::ostringstream message;
+    message << "estimator: peer " << peer << "'s joint at t = " << t_s
+            << " s must be finite and after its previous one";
+    throw std::invalid_argument(message.str());
+  }
+  joints.emplace_hint(joints.end(), t_s, joint);
 }
 
 void Estimator::AddRange(double t_s, const Eigen::Vector3d& p_WA_m, double range_m, double sigma_m) {
@@ -588,7 +741,7 @@ Estimate Estimator::AddFrame(const StereoFrame& frame) {
     s.Triangulate();
     s.last_frame_t_s = frame.t_s;
     s.AttachRanges(frame.t_s);  // those at the first frame's time join it; earlier ones are dropped
-    s.PruneImu();
+    s.PruneInputs();
     s.last_good = s.Newest(true, 0);
     return *s.last_good;
   }
@@ -601,9 +754,7 @@ Estimate Estimator::AddFrame(const StereoFrame& frame) {
   s.AttachRanges(frame.t_s);
   s.IntegrateTo(s.since_keyframe.get(), s.last_frame_t_s, frame.t_s);
   const WindowFrame& keyframe = *s.window.back();
-  auto newest = std::make_unique<WindowFrame>();
-  newest->serial = s.next_serial++;
-  newest->t_s = frame.t_s;
+  std::unique_ptr<WindowFrame> newest = s.NewFrame(frame.t_s);
   newest->imu = std::make_shared<ImuPreintegration>(*s.since_keyframe);
   newest->Set(s.since_keyframe->Predict(keyframe.State(), keyframe.Biases(), s.g_W), keyframe.Biases());
   s.window.push_back(std::move(newest));
@@ -627,7 +778,7 @@ Estimate Estimator::AddFrame(const StereoFrame& frame) {
     s.Start(frame.t_s, carried, s.last_good->biases, s.options.reset_prior);
     s.AddObservations(s.window.back()->serial, frame);
     s.Triangulate();
-    s.PruneImu();
+    s.PruneInputs();
     estimate = s.Newest(true, 0);
     estimate.reset = true;
     s.last_good = estimate;
@@ -643,7 +794,7 @@ Estimate Estimator::AddFrame(const StereoFrame& frame) {
     for (const auto& w : s.window) keyframes += w->keyframe ? 1 : 0;
     if (keyframes > s.options.window_keyframes) s.MarginaliseOldest();
   }
-  s.PruneImu();
+  s.PruneInputs();
   s.last_good = estimate;
   return estimate;
 }

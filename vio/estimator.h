@@ -8,12 +8,19 @@
 // ground-truth pose) or from gravity (roll and pitch from the accelerometer, yaw and position zero), and
 // failure detection with a reset from the last good estimate (VINS-Fusion's checks).
 //
+// The modes of seed §VI-G come from what is fed: images and IMU alone are VINS; with AddRange, VINS+UWB; with
+// AddAttitude and the other sub-aircraft's shared joints (AddPeerJoint), VIRPO (eq. 22): each window frame
+// gets r_kq against the flight controller's attitude and, per other sub-aircraft with a shared joint at that
+// time, r_kp and r_kv through the platform's geometry, with a drift of the other's odometry (position and
+// yaw, about where it is) estimated alongside under Table IX's prior and continuous sigmas.
+//
 // Deterministic: one thread, iteration limits only (no time limits), so the same inputs give the same
 // estimates bit for bit.
 
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "sensors/imu.h"
 #include "vio/state.h"
@@ -21,6 +28,25 @@
 #include "vio/stereo_tracker.h"
 
 namespace iapsim::vio {
+
+/// VIRPO's physical terms (seed eq. 22), with Table IX's sigmas.
+struct PhysicalConstraintOptions {
+  Eigen::Vector3d p_IJ_m = Eigen::Vector3d::Zero();  ///< this sub-aircraft's spherical joint in I
+  /// |d_i − d_o| to each other sub-aircraft (seed §III-A), indexed as AddPeerJoint's `peer`
+  std::vector<double> link_lengths_m;
+  double sigma_link_m = 0.04;            ///< σ_l
+  double sigma_rate_radps = 0.1;         ///< σ_ω
+  double sigma_attitude_rad = 0.01;      ///< σ_att
+  double drift_prior_position_m = 0.05;  ///< σ_drift,position^prior: at the first solve with a peer
+  double drift_prior_yaw_rad = 0.1;      ///< σ_drift,yaw^prior
+  double drift_step_position_m = 0.01;   ///< σ_drift,position^continuous: from one solve to the next
+  double drift_step_yaw_rad = 0.04;      ///< σ_drift,yaw^continuous
+  double huber_sigmas = 3.0;             ///< Huber loss on whitened r_kp and r_kv (a peer may fail)
+  /// A window frame between two shared joints is constrained by their interpolation, one after the last
+  /// shared joint (a peer solving the same instant has not shared it yet) by the last one carried by its
+  /// velocity, up to this long.
+  double max_peer_extrapolation_s = 0.1;
+};
 
 struct EstimatorOptions {
   int window_keyframes = 10;  ///< VINS's WINDOW_SIZE
@@ -49,6 +75,7 @@ struct EstimatorOptions {
   double max_step_m = 5.0;
   double max_vertical_step_m = 1.0;
   double max_rotation_step_deg = 50.0;
+  PhysicalConstraintOptions physical;
 };
 
 struct Estimate {
@@ -59,7 +86,11 @@ struct Estimate {
   bool reset =
       false;  ///< a failure was detected at this frame: the estimator restarted from the last good estimate
   int features = 0;  ///< features in this frame's solve
+  Eigen::Vector3d w_I_radps = Eigen::Vector3d::Zero();  ///< the gyroscope at the frame, less the bias
 };
+
+/// The joint of a sub-aircraft whose IMU has this estimate, as it shares it with the others (VIRPO).
+PeerJoint JointOf(const Estimate& estimate, const Eigen::Vector3d& p_IJ_m);
 
 struct EstimatorStatistics {
   int frames = 0;
@@ -68,6 +99,8 @@ struct EstimatorStatistics {
   std::string last_failure;
   int ranges_used = 0;
   int ranges_dropped = 0;  ///< older than the frame before them, or before the first frame
+  int attitude_constraints = 0;   ///< r_kq blocks over all solves
+  int kinematic_constraints = 0;  ///< r_kp/r_kv pairs over all solves
   double solve_ms = 0.0;   ///< totals
   double marginalisation_ms = 0.0;
 };
@@ -88,6 +121,12 @@ class Estimator {
   /// SetInitialState. The range joins the newest keyframe at the next frame, through the IMU between them; a
   /// range older than the last frame is dropped (counted).
   void AddRange(double t_s, const Eigen::Vector3d& p_WA_m, double range_m, double sigma_m);
+  /// The flight controller's attitude estimate of the IMU, R̂_WI (VIRPO's r_kq), in increasing time: a
+  /// frame between two samples gets their interpolation. Throws std::invalid_argument otherwise.
+  void AddAttitude(double t_s, const Eigen::Quaterniond& q_WI);
+  /// Another sub-aircraft's joint as it shared it at t_s (VIRPO's r_kp, r_kv), in increasing time per peer;
+  /// `peer` indexes PhysicalConstraintOptions::link_lengths_m. Throws std::invalid_argument otherwise.
+  void AddPeerJoint(std::size_t peer, double t_s, const PeerJoint& joint);
   /// A tracked stereo frame, after the IMU samples up to its time (a sample after it is used to interpolate;
   /// without one the last sample is held). Throws std::invalid_argument when no IMU sample came before it or
   /// its time is not after the previous frame's. A failure restarts the window at this frame, with its

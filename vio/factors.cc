@@ -1,5 +1,6 @@
 #include "vio/factors.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "vio/so3.h"
@@ -297,6 +298,102 @@ bool StatePriorFactor::Evaluate(double const* const* parameters, double* residua
     Eigen::Matrix<double, 15, kSpeedBiasSize> J = Eigen::Matrix<double, 15, kSpeedBiasSize>::Zero();
     J.bottomRows<9>().setIdentity();
     RowMajorMap<15, kSpeedBiasSize>{jacobians[1]} = inverse_sigma_.asDiagonal() * J;
+  }
+  return true;
+}
+
+KinematicFactor::KinematicFactor(const Eigen::Vector3d& p_IJ_m, const Eigen::Vector3d& w_I_radps,
+                                 const PeerJoint& other, const Eigen::Vector3d& drift_centre_W_m,
+                                 double link_m, double sigma_link_m, double sigma_rate_radps)
+    : p_IJ_m_(p_IJ_m),
+      w_I_radps_(w_I_radps),
+      other_(other),
+      from_centre_m_(other.p_WJ_m - drift_centre_W_m),
+      drift_centre_W_m_(drift_centre_W_m),
+      link_m_(link_m),
+      sigma_link_m_(sigma_link_m),
+      sigma_along_link_mps_(sigma_rate_radps * link_m) {
+  if (!(link_m > 0.0) || !(sigma_link_m > 0.0) || !(sigma_rate_radps > 0.0))
+    throw std::invalid_argument("kinematic factor: link_m, sigma_link_m and sigma_rate_radps must be > 0");
+}
+
+bool KinematicFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const Eigen::Matrix3d R = Rotation(parameters[0]).toRotationMatrix();
+  const Eigen::Vector3d v_I(parameters[1]);
+  const Eigen::Vector3d b_g(parameters[1] + 3);
+  const double* drift = parameters[2];
+  const Eigen::Matrix3d Rz = Eigen::AngleAxisd(drift[3], Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Matrix3d dRz = Rz * Skew(Eigen::Vector3d::UnitZ());  // d Rz / d ψ
+  const Eigen::Vector3d lever_rate = (w_I_radps_ - b_g).cross(p_IJ_m_);
+  const Eigen::Vector3d dp = Position(parameters[0]) + R * p_IJ_m_ - Rz * from_centre_m_ - drift_centre_W_m_ -
+                             Eigen::Vector3d(drift[0], drift[1], drift[2]);
+  const Eigen::Vector3d dv = v_I + R * lever_rate - Rz * other_.v_WJ_W_mps;
+  const double distance = std::max(dp.norm(), 1e-9);
+  residuals[0] = (distance - link_m_) / sigma_link_m_;
+  residuals[1] = dv.dot(dp) / link_m_ / sigma_along_link_mps_;
+  if (jacobians == nullptr) return true;
+  // Rows: d r / d Δp and d r / d Δv; then the chain through Δp's and Δv's terms.
+  const Eigen::RowVector3d r0_dp = dp.transpose() / (distance * sigma_link_m_);
+  const double scale1 = 1.0 / (link_m_ * sigma_along_link_mps_);
+  const Eigen::RowVector3d r1_dp = scale1 * dv.transpose(), r1_dv = scale1 * dp.transpose();
+  if (jacobians[0] != nullptr) {
+    RowMajorMap<2, kPoseSize> J(jacobians[0]);
+    J.setZero();
+    const Eigen::Matrix3d dp_dtheta = -R * Skew(p_IJ_m_), dv_dtheta = -R * Skew(lever_rate);
+    J.block<1, 3>(0, 0) = r0_dp;
+    J.block<1, 3>(0, 3) = r0_dp * dp_dtheta;
+    J.block<1, 3>(1, 0) = r1_dp;
+    J.block<1, 3>(1, 3) = r1_dp * dp_dtheta + r1_dv * dv_dtheta;
+  }
+  if (jacobians[1] != nullptr) {
+    RowMajorMap<2, kSpeedBiasSize> J(jacobians[1]);
+    J.setZero();
+    J.block<1, 3>(1, 0) = r1_dv;
+    J.block<1, 3>(1, 3) = r1_dv * R * Skew(p_IJ_m_);  // (ω − b) × p = −[p]× (ω − b)
+  }
+  if (jacobians[2] != nullptr) {
+    RowMajorMap<2, kDriftSize> J(jacobians[2]);
+    J.block<1, 3>(0, 0) = -r0_dp;
+    const Eigen::Vector3d dp_dpsi = -dRz * from_centre_m_, dv_dpsi = -dRz * other_.v_WJ_W_mps;
+    J(0, 3) = r0_dp.dot(dp_dpsi);
+    J.block<1, 3>(1, 0) = -r1_dp;
+    J(1, 3) = r1_dp.dot(dp_dpsi) + r1_dv.dot(dv_dpsi);
+  }
+  return true;
+}
+
+AttitudeFactor::AttitudeFactor(const Eigen::Quaterniond& q_WI_measured, double sigma_rad)
+    : down_I_measured_(q_WI_measured.normalized().conjugate() * Eigen::Vector3d::UnitZ()),
+      sigma_rad_(sigma_rad) {
+  if (!(sigma_rad > 0.0)) throw std::invalid_argument("attitude factor: sigma_rad must be > 0");
+}
+
+bool AttitudeFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const Eigen::Vector3d down_I = Rotation(parameters[0]).normalized().conjugate() * Eigen::Vector3d::UnitZ();
+  Eigen::Map<Eigen::Vector3d>{residuals} = (down_I - down_I_measured_) / sigma_rad_;
+  if (jacobians != nullptr && jacobians[0] != nullptr) {
+    // (R Exp(δθ))ᵀ e_z = Exp(−δθ) Rᵀ e_z ≈ a + [a]× δθ, a = Rᵀ e_z.
+    RowMajorMap<3, kPoseSize> J(jacobians[0]);
+    J.setZero();
+    J.middleCols<3>(3) = Skew(down_I) / sigma_rad_;
+  }
+  return true;
+}
+
+DriftPriorFactor::DriftPriorFactor(const Eigen::Vector4d& drift, double sigma_position_m,
+                                   double sigma_yaw_rad)
+    : drift_(drift) {
+  if (!(sigma_position_m > 0.0) || !(sigma_yaw_rad > 0.0))
+    throw std::invalid_argument("drift prior: sigma_position_m and sigma_yaw_rad must be > 0");
+  inverse_sigma_ << Eigen::Vector3d::Constant(1.0 / sigma_position_m), 1.0 / sigma_yaw_rad;
+}
+
+bool DriftPriorFactor::Evaluate(double const* const* parameters, double* residuals,
+                                double** jacobians) const {
+  Eigen::Map<Eigen::Vector4d>{residuals} =
+      inverse_sigma_.cwiseProduct(Eigen::Vector4d(parameters[0]) - drift_);
+  if (jacobians != nullptr && jacobians[0] != nullptr) {
+    RowMajorMap<4, 4>{jacobians[0]} = inverse_sigma_.asDiagonal();
   }
   return true;
 }

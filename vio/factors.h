@@ -5,6 +5,9 @@
 //                  q ← q Exp(δθ) (right perturbation, as in vio/so3.h)
 //   speed_bias  9: v_WI_W (3), gyroscope bias (3), accelerometer bias (3)
 //   inverse depth 1: λ = 1/z of a feature in the left optical frame of the keyframe that first saw it
+//   drift       4: another sub-aircraft's odometry drift (VIRPO): δp_W (3) and δψ, its truth being
+//                  Rz(δψ) (x − c) + c + δp for a position x it shares, turned about a centre c near it
+//                  (a yaw drift grows where the vehicle is, not about W's origin)
 // A pose Jacobian is written "lifted": its first six columns are the derivative with respect to the tangent
 // [δp, δθ] and the seventh is zero, and PoseManifold's PlusJacobian is [I₆; 0], so Ceres's product of the
 // two is the tangent Jacobian. (The derivative with respect to the quaternion's four coordinates is never
@@ -19,12 +22,14 @@
 #include <memory>
 
 #include "vio/imu_preintegration.h"
+#include "vio/state.h"
 
 namespace iapsim::vio {
 
 constexpr int kPoseSize = 7;
 constexpr int kPoseTangentSize = 6;
 constexpr int kSpeedBiasSize = 9;
+constexpr int kDriftSize = 4;
 
 class PoseManifold : public ceres::Manifold {
  public:
@@ -121,6 +126,58 @@ class StatePriorFactor : public ceres::SizedCostFunction<15, kPoseSize, kSpeedBi
   NavState state_;
   ImuBiases biases_;
   Eigen::Matrix<double, 15, 1> inverse_sigma_;
+};
+
+// --- VIRPO's physical terms (seed eq. 22, Table IX) ----------------------------------------------------
+
+/// r_kp and r_kv of eq. (22) between this sub-aircraft's spherical joint J_i = p_WI + R_WI p_IJ and another
+/// sub-aircraft's joint J_o as that one shares it, corrected for its drift about the centre c:
+/// J̃_o = Rz(δψ) (J_o − c) + c + δp. Both
+/// joints sit on the rigid platform |d_i − d_o| = L apart (seed §III-A), so |J_i − J̃_o| = L, and their
+/// relative velocity ω_P × (J_i − J_o) has no component along the link. 2 residuals:
+///   (|Δp| − L) / σ_l   and   (Δv · Δp / L) / (σ_ω L),   Δp = J_i − J̃_o, Δv = v_Ji − Rz(δψ) v_Jo,
+/// with v_Ji = v_WI + R_WI ((ω_I − b_g) × p_IJ), ω_I the gyroscope at the frame. σ_ω L turns Table IX's rate
+/// sigma into a velocity along the link. Parameters: pose_i, speed_bias_i, drift_o.
+class KinematicFactor : public ceres::SizedCostFunction<2, kPoseSize, kSpeedBiasSize, kDriftSize> {
+ public:
+  KinematicFactor(const Eigen::Vector3d& p_IJ_m, const Eigen::Vector3d& w_I_radps, const PeerJoint& other,
+                  const Eigen::Vector3d& drift_centre_W_m, double link_m, double sigma_link_m,
+                  double sigma_rate_radps);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  Eigen::Vector3d p_IJ_m_, w_I_radps_;
+  PeerJoint other_;
+  Eigen::Vector3d from_centre_m_;  ///< J_o − c
+  Eigen::Vector3d drift_centre_W_m_;
+  double link_m_, sigma_link_m_, sigma_along_link_mps_;
+};
+
+/// r_kq of eq. (22): the tilt of R_WI against a flight controller's attitude estimate R̂_WI (the seed feeds
+/// the EKF's, §VI-G, Fig. 18). Only the tilt: the EKF's yaw comes from a heading sensor far worse than
+/// vision. 3 residuals (R_WIᵀ e_z − R̂_WIᵀ e_z) / σ_att, the gravity direction seen in I (their norm is the
+/// tilt error for small angles). Parameter: pose.
+class AttitudeFactor : public ceres::SizedCostFunction<3, kPoseSize> {
+ public:
+  AttitudeFactor(const Eigen::Quaterniond& q_WI_measured, double sigma_rad);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  Eigen::Vector3d down_I_measured_;
+  double sigma_rad_;
+};
+
+/// r_drift of eq. (22): a drift block near a value (zero at the start, with Table IX's prior sigmas; its last
+/// estimate afterwards, with the continuous ones). 4 residuals (δp − δp₀)/σ_p, (δψ − δψ₀)/σ_ψ. Parameter:
+/// drift.
+class DriftPriorFactor : public ceres::SizedCostFunction<kDriftSize, kDriftSize> {
+ public:
+  DriftPriorFactor(const Eigen::Vector4d& drift, double sigma_position_m, double sigma_yaw_rad);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  Eigen::Vector4d drift_;
+  Eigen::Vector4d inverse_sigma_;
 };
 
 }  // namespace iapsim::vio

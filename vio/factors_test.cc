@@ -331,6 +331,99 @@ TEST(FactorsTest, StatePriorJacobiansMatchNumericDifferentiation) {
       {true, false});
 }
 
+// The joints of two sub-aircraft on the platform of KnownMotion, the first with its IMU 5 cm from its joint
+// and an attitude of its own (a spherical joint leaves it free), at time t.
+struct TwoJoints {
+  Eigen::Vector3d d_i{0.6, 0.2, -0.05}, d_o{-0.4, 0.5, 0.0};  // in P
+  Eigen::Vector3d p_IJ{0.01, -0.02, 0.05};
+  Eigen::Vector3d w_I{0.3, -0.2, 0.5};  // the sub-aircraft's own rate
+  NavState i;                           // sub-aircraft i's IMU
+  PeerJoint o;                          // o's joint, exact
+  double link_m() const { return (d_i - d_o).norm(); }
+  explicit TwoJoints(double t) {
+    const Eigen::Isometry3d X_WP = KnownMotion::Pose(t);
+    const Eigen::Vector3d w_P = KnownMotion::Kinematics(t).w_WB_B_radps;
+    const auto joint = [&](const Eigen::Vector3d& d) {
+      return PeerJoint{X_WP * d, KnownMotion::Velocity(t) + X_WP.linear() * w_P.cross(d)};
+    };
+    const PeerJoint J_i = joint(d_i);
+    o = joint(d_o);
+    i.q_WI = ExpQuaternion(Eigen::Vector3d(0.1, -0.15, 2.0));
+    i.p_WI_m = J_i.p_WJ_m - i.q_WI * p_IJ;
+    i.v_WI_W_mps = J_i.v_WJ_W_mps - i.q_WI * w_I.cross(p_IJ);
+  }
+  std::vector<double> SpeedBias() const {
+    return {i.v_WI_W_mps.x(), i.v_WI_W_mps.y(), i.v_WI_W_mps.z(), 0, 0, 0, 0, 0, 0};
+  }
+};
+
+std::vector<double> Residuals(const ceres::CostFunction& factor,
+                              const std::vector<std::vector<double>>& blocks) {
+  std::vector<const double*> pointers;
+  for (const auto& b : blocks) pointers.push_back(b.data());
+  std::vector<double> r(factor.num_residuals());
+  EXPECT_TRUE(factor.Evaluate(pointers.data(), r.data(), nullptr));
+  return r;
+}
+
+// Two joints of a rigid body in motion satisfy both constraints exactly, with the other's drift undone by the
+// drift block; an error along the link shows in r_kp in units of σ_l.
+TEST(FactorsTest, KinematicFactorIsZeroOnARigidPlatformAndUndoesADrift) {
+  for (double t : {0.0, 0.7, 2.3}) {
+    const TwoJoints w(t);
+    const Eigen::Vector3d centre(0.5, -1.0, -2.0);
+    const KinematicFactor exact(w.p_IJ, w.w_I, w.o, centre, w.link_m(), 0.04, 0.1);
+    const std::vector<double> pose = PoseBlock(w.i.p_WI_m, w.i.q_WI);
+    for (double r : Residuals(exact, {pose, w.SpeedBias(), {0, 0, 0, 0}})) EXPECT_NEAR(r, 0.0, 1e-12);
+    // The other's odometry has drifted: its truth is Rz(0.2) (x − c) + c + (0.3, −0.1, 0.05) of what it
+    // shares.
+    const Eigen::Matrix3d Rz = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Vector3d dp(0.3, -0.1, 0.05);
+    const PeerJoint drifted{Rz.transpose() * (w.o.p_WJ_m - dp - centre) + centre,
+                            Rz.transpose() * w.o.v_WJ_W_mps};
+    const KinematicFactor after_drift(w.p_IJ, w.w_I, drifted, centre, w.link_m(), 0.04, 0.1);
+    for (double r : Residuals(after_drift, {pose, w.SpeedBias(), {0.3, -0.1, 0.05, 0.2}}))
+      EXPECT_NEAR(r, 0.0, 1e-12);
+    const std::vector<double> undone = Residuals(after_drift, {pose, w.SpeedBias(), {0, 0, 0, 0}});
+    EXPECT_GT(std::hypot(undone[0], undone[1]), 0.5);
+    // 1 cm further apart along the link: r_kp = 0.01 / 0.04; r_kv still zero (a parallel shift moves
+    // nothing).
+    const Eigen::Vector3d along = (w.i.p_WI_m + w.i.q_WI * w.p_IJ - w.o.p_WJ_m).normalized();
+    const std::vector<double> apart = PoseBlock(w.i.p_WI_m + 0.01 * along, w.i.q_WI);
+    const std::vector<double> r = Residuals(exact, {apart, w.SpeedBias(), {0, 0, 0, 0}});
+    EXPECT_NEAR(r[0], 0.25, 1e-9);
+    EXPECT_NEAR(r[1], 0.0, 1e-12);
+  }
+}
+
+TEST(FactorsTest, PhysicalFactorJacobiansMatchNumericDifferentiation) {
+  const TwoJoints w(0.9);
+  const KinematicFactor kinematic(w.p_IJ, w.w_I, w.o, Eigen::Vector3d(0.5, 1.0, -2.0), w.link_m() + 0.03,
+                                  0.04, 0.1);
+  std::vector<double> sb = w.SpeedBias();
+  sb[0] += 0.1;
+  sb[3] = 0.02;
+  sb[5] = -0.01;
+  ExpectJacobiansMatchNumericDifferentiation(
+      kinematic, {PoseBlock(w.i.p_WI_m, w.i.q_WI), sb, {0.05, -0.02, 0.01, 0.15}}, {true, false, false});
+  const AttitudeFactor attitude(w.i.q_WI * ExpQuaternion(Eigen::Vector3d(0.02, -0.01, 0.3)), 0.01);
+  ExpectJacobiansMatchNumericDifferentiation(attitude, {PoseBlock(w.i.p_WI_m, w.i.q_WI)}, {true});
+  const DriftPriorFactor drift(Eigen::Vector4d(0.01, 0.02, -0.03, 0.05), 0.05, 0.1);
+  ExpectJacobiansMatchNumericDifferentiation(drift, {{0.0, 0.1, 0.0, -0.2}}, {false});
+}
+
+// r_kq sees the tilt and not the yaw: a measured attitude turned about W's z leaves it at zero; one tilted by
+// σ_att gives a residual of norm 1.
+TEST(FactorsTest, AttitudeFactorSeesTiltNotYaw) {
+  const Eigen::Quaterniond q_WI = ExpQuaternion(Eigen::Vector3d(0.2, -0.1, 1.0));
+  const std::vector<double> pose = PoseBlock(Eigen::Vector3d::Zero(), q_WI);
+  const AttitudeFactor yawed(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) * q_WI, 0.01);
+  for (double r : Residuals(yawed, {pose})) EXPECT_NEAR(r, 0.0, 1e-12);
+  const AttitudeFactor tilted(Eigen::AngleAxisd(0.01, Eigen::Vector3d(1, 1, 0).normalized()) * q_WI, 0.01);
+  const std::vector<double> r = Residuals(tilted, {pose});
+  EXPECT_NEAR(Eigen::Vector3d(r[0], r[1], r[2]).norm(), 1.0, 1e-4);
+}
+
 // Marginalising the first keyframe (its pose, velocity and biases and the depths anchored in it) at the
 // batch optimum must leave that optimum where it was: the prior's gradient there is the marginalised
 // residuals' reduced gradient, so the remaining problem, started elsewhere, comes back to the same states.

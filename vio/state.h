@@ -19,6 +19,13 @@ struct NavState {
   Eigen::Vector3d v_WI_W_mps = Eigen::Vector3d::Zero();
 };
 
+/// Another sub-aircraft's spherical joint as it shares it (seed Fig. 4: each sub-aircraft shares its
+/// odometry): position and velocity in its own estimate of W.
+struct PeerJoint {
+  Eigen::Vector3d p_WJ_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d v_WJ_W_mps = Eigen::Vector3d::Zero();
+};
+
 /// Standard deviations of a prior on one state (the window's first, before anything was marginalised). The
 /// rotation's are about W's axes: z is the yaw, x and y the tilt.
 struct StatePriorSigmas {

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # `iapsim vio` end to end, as a user runs it: a short rendered run of the seed's stereo data set (all three
-# sub-aircraft), the estimator over its bag (ATE, determinism, one sub-aircraft alone, with UWB), and the
-# data-set errors a user meets (a bag without images, a camera model that is not the scenario's, a scenario
-# without cameras, an unknown sub-aircraft), each a clear message and exit code 2.
+# sub-aircraft), the estimator over its bag in all three modes (ATE, determinism, one sub-aircraft alone, UWB,
+# VIRPO's constraints, a settings file), and the errors a user meets (a bag without images, a camera model
+# that is not the scenario's, a scenario without cameras, an unknown sub-aircraft, VIRPO with one
+# sub-aircraft, a misspelt setting), each a clear message and exit code 2.
 # usage: vio_offline_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
 # shellcheck source=tests/support/script.sh
@@ -64,7 +65,31 @@ for name, sub in report["sub_aircraft"].items():
     assert sub["failures"] == 0 and sub["ate"]["rmse_m"] < 0.03, (name, sub)
 PY
 
-# data-set errors
+# VIRPO: ranges, the attitude estimate at every window frame and each other sub-aircraft's joint; the same bag
+# gives the same estimates again (the sub-aircraft step in lockstep, whatever the threads do)
+printf 'virpo:\n  sigma_attitude_rad: 0.04\n' > "$work/virpo.yaml"
+"$iapsim" vio "$work/run" --mode virpo --config "$work/virpo.yaml" --out "$work/virpo" > /dev/null
+"$iapsim" vio "$work/run" --mode virpo --set virpo.sigma_attitude_rad=0.04 --out "$work/virpo_again" > /dev/null
+/usr/bin/python3 - "$work/virpo/vio.json" "$work/uwb/vio.json" << 'PY' || fail "virpo: $(cat "$work/virpo/vio.json")"
+import json, sys
+report, uwb = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+assert report["mode"] == "virpo", report["mode"]
+for name, sub in report["sub_aircraft"].items():
+    assert sub["failures"] == 0 and sub["ate"]["rmse_m"] < 0.03, (name, sub)
+    assert sub["ranges_used"] == uwb["sub_aircraft"][name]["ranges_used"], (name, sub)
+    # from the second frame on, each solve's window frames (up to 11) have an attitude and a joint from each
+    # of the two others (from the previous frame on)
+    assert 30 <= sub["attitude_constraints"], (name, sub)
+    assert 2 * 29 <= sub["kinematic_constraints"] <= 2 * sub["attitude_constraints"], (name, sub)
+PY
+for sub in iap_sub1 iap_sub2 iap_sub3 iap_platform; do
+  cmp -s "$work/virpo/${sub}_estimate.tum" "$work/virpo_again/${sub}_estimate.tum" || fail "virpo: $sub differs"
+done
+
+# errors
+expect_exit 2 "--mode virpo needs two or more sub-aircraft of vehicle 'iap' with stereo cameras (1 given)" \
+  "$iapsim" vio "$work/run" --mode virpo --sub iap/sub1
+expect_exit 2 "virpo.sigma_lnk_m" "$iapsim" vio "$work/run" --mode virpo --set virpo.sigma_lnk_m=0.1
 "$iapsim" run "$src/configs/scenarios/three_star_sensors.yaml" --duration 0.2 --out "$work/sensors" > /dev/null
 expect_exit 2 "no process renders cameras (params.cameras)" "$iapsim" vio "$work/sensors"
 expect_exit 2 "no messages on /iap/sub1/stereo/left/image_raw/compressed" \
@@ -73,5 +98,5 @@ sed 's/hfov_deg: 90, baseline_m/hfov_deg: 80, baseline_m/' "$work/run/scenario.r
 expect_exit 2 "/iap/sub1/stereo/left/camera_info: the recorded camera (640x480, fx 320.000" \
   "$iapsim" vio "$work/run/run.bag" --scenario "$work/other_camera.yaml"
 expect_exit 2 "no stereo camera on 'iap/sub9' (--sub)" "$iapsim" vio "$work/run" --sub iap/sub9
-expect_exit 2 "--mode: virpo not in {vio,vio_uwb}" "$iapsim" vio "$work/run" --mode virpo
+expect_exit 2 "--mode: slam not in {vio,vio_uwb,virpo}" "$iapsim" vio "$work/run" --mode slam
 echo "vio offline: all checks passed"
