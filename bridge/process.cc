@@ -73,13 +73,16 @@ class Runtime {
         control_(control),
         bus_(MakeBusOptions(scenario, self, secret)),
         last_ack_(schedule_.members().size(), -1) {
-    // the peers whose step-k acks gate this process's step k: every one (recorders) or those it names
+    // the peers whose step-k acks gate this process's step k: every one (recorders) or those it names; and
+    // those whose acks of their last due step before k do (after_previous)
+    const auto names = [](const std::vector<std::string>& list, const std::string& name) {
+      return std::find(list.begin(), list.end(), name) != list.end();
+    };
     for (size_t m = 0; m < schedule_.members().size(); ++m) {
       const std::string& name = schedule_.members()[m].name;
-      const bool named = std::find(self.after.begin(), self.after.end(), name) != self.after.end();
-      if (static_cast<int>(m) != self_index_ && (process_.StepsAfterPeers() || named)) {
-        gating_peers_.push_back(static_cast<int>(m));
-      }
+      if (static_cast<int>(m) == self_index_) continue;
+      if (process_.StepsAfterPeers() || names(self.after, name)) gating_peers_.push_back(static_cast<int>(m));
+      if (names(self.after_previous, name)) gating_previous_peers_.push_back(static_cast<int>(m));
     }
   }
 
@@ -334,7 +337,7 @@ class Runtime {
     const int member = schedule_.IndexOf(ack.node);
     if (member < 0) return;
     last_ack_[member] = std::max(last_ack_[member], static_cast<int64_t>(ack.step));
-    if (!gating_peers_.empty()) StepWaitingTicks();
+    if (!gating_peers_.empty() || !gating_previous_peers_.empty()) StepWaitingTicks();
   }
 
   void OnTick(const iapsim_msgs::Tick& tick) {
@@ -370,6 +373,11 @@ class Runtime {
   bool PeersAcked(uint64_t k) const {
     for (const int member : gating_peers_) {
       if (schedule_.Due(member, k) && last_ack_[member] < static_cast<int64_t>(k)) return false;
+    }
+    for (const int member : gating_previous_peers_) {
+      if (k == 0) break;
+      const uint64_t period = schedule_.members()[member].period_steps;
+      if (last_ack_[member] < static_cast<int64_t>((k - 1) / period * period)) return false;
     }
     return true;
   }
@@ -424,6 +432,7 @@ class Runtime {
   ControlClient& control_;
   Bus bus_;
   std::vector<int64_t> last_ack_;  // per schedule member: highest step acknowledged
+  std::vector<int> gating_previous_peers_;  // whose ack of their last due step before k it waits for
   std::vector<int> gating_peers_;  // schedule members whose ack of k this process waits for before step k
   std::vector<uint64_t> late_acks_;
   struct LagStats {

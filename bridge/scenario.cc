@@ -43,7 +43,8 @@ void ReadTopicList(YamlMap& map, const std::string& key, std::vector<std::string
 }
 
 // `after` names processes of the scenario other than the clock owner and itself, without a cycle (which
-// would stall the lockstep: each process waiting for the other's ack)
+// would stall the lockstep: each process waiting for the other's ack); `after_previous` the same, with
+// cycles allowed (each waits only for acks the clock already waited for)
 void CheckStepOrder(const std::vector<ProcessConfig>& processes, const std::map<std::string, YamlMap>& entries) {
   std::map<std::string, const ProcessConfig*> by_name;
   for (const auto& p : processes) by_name[p.name] = &p;
@@ -55,6 +56,16 @@ void CheckStepOrder(const std::vector<ProcessConfig>& processes, const std::map<
       if (peer == p.name) map.Fail("after", "a process cannot wait for itself");
       if (it->second->role == ProcessRole::kClock) {
         map.Fail("after", "'" + peer + "' owns the clock: every process already acts after it");
+      }
+    }
+    for (const auto& peer : p.after_previous) {
+      const auto it = by_name.find(peer);
+      if (it == by_name.end()) map.Fail("after_previous", "'" + peer + "' is not a process of this scenario");
+      if (peer == p.name) map.Fail("after_previous", "a process cannot wait for itself");
+      if (it->second->role == ProcessRole::kClock || it->second->max_lag_steps > 0) {
+        map.Fail("after_previous", "'" + peer +
+                                       "' acknowledges no step before the clock's next (the clock owner, "
+                                       "or a process that may lag)");
       }
     }
     // depth-first walk of the processes p waits for, directly or not
@@ -270,14 +281,15 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
     map.OptionalInRange("rate_hz", &p.rate_hz, 0.0, 1e6);
     map.OptionalInRange("hang_timeout_s", &p.hang_timeout_s, 0.05, 3600.0);
     map.OptionalInRange("startup_timeout_s", &p.startup_timeout_s, 0.1, 3600.0);
-    if (map.Has("after")) {
-      const YAML::Node after = map.Raw("after");
-      if (!after.IsSequence()) map.Fail("after", "expected a list of process names");
-      for (const auto& peer : after) {
-        if (!peer.IsScalar()) map.Fail("after", "expected a list of process names");
-        p.after.push_back(peer.Scalar());
+    for (auto [key, names] : {std::pair{"after", &p.after}, std::pair{"after_previous", &p.after_previous}}) {
+      if (!map.Has(key)) continue;
+      const YAML::Node list = map.Raw(key);
+      if (!list.IsSequence()) map.Fail(key, "expected a list of process names");
+      for (const auto& peer : list) {
+        if (!peer.IsScalar()) map.Fail(key, "expected a list of process names");
+        names->push_back(peer.Scalar());
       }
-      map.SetResolved("after", after);
+      map.SetResolved(key, list);
     }
     p.params = map.Raw("params");
     if (p.params && !p.params.IsMap() && !p.params.IsNull()) map.Fail("params", "expected a map");

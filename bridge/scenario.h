@@ -71,6 +71,10 @@ struct ProcessConfig {
   // lockstep and fast: acts on step k only after these processes acknowledged k, so it reads their step-k
   // outputs (a controller fed by the sensors' filtered wrench); no cycles
   std::vector<std::string> after;
+  // acts on step k only after these processes acknowledged their last due step before k, so it reads what
+  // they published then; may be mutual (processes exchanging estimates a step behind: seed Fig. 4's
+  // sub-aircraft sharing odometry)
+  std::vector<std::string> after_previous;
   // the clock may run this many steps ahead of the process's acknowledgements, which it sends every
   // max_lag_steps / 4 steps (and at the last step); only the recorder lags (recording.max_lag_steps)
   uint64_t max_lag_steps = 0;

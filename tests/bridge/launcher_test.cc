@@ -436,6 +436,20 @@ TEST_F(LauncherTest, AProcessAfterAPeerSeesThePeersOutputOfTheSameStep) {
   const LaunchResult unknown = Run(scenario, "unknown", {"processes.control.after=[imu]"});
   EXPECT_EQ(unknown.exit_code, 2) << unknown.message;
   EXPECT_NE(unknown.message.find("'imu' is not a process"), std::string::npos) << unknown.message;
+
+  // after_previous may be mutual: each reads what the other published at the step before (peers sharing
+  // estimates, as the sub-aircraft's VIO processes do)
+  const LaunchResult mutual =
+      Run(scenario, "mutual",
+          {"processes.uwb.rate_hz=1000", "processes.control.params.expect_uwb_of_previous_step=true",
+           "processes.control.after_previous=[uwb]", "processes.uwb.after_previous=[control]"});
+  ASSERT_EQ(mutual.exit_code, 0) << mutual.message;
+  EXPECT_EQ(Metrics(mutual)["processes"]["control"]["process"]["steps"], 5001);
+  const LaunchResult unknown_previous =
+      Run(scenario, "unknown_previous", {"processes.control.after_previous=[imu]"});
+  EXPECT_EQ(unknown_previous.exit_code, 2) << unknown_previous.message;
+  EXPECT_NE(unknown_previous.message.find("after_previous: 'imu' is not a process"), std::string::npos)
+      << unknown_previous.message;
 }
 
 TEST_F(LauncherTest, FastModeIsCausalAndUnpaced) {

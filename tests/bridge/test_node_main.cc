@@ -5,7 +5,8 @@
 //                         checking it is the controller's command of its last step (command_period_steps)
 //   behavior: controller  publishes /<vehicle>/cmd (IapCommand) computed from the state of the same step;
 //                         with expect_uwb_of_step, fails unless the sensor's ranges of the same step arrived
-//                         first (the scenario's `after: [sensor]` orders the two)
+//                         first (the scenario's `after: [sensor]` orders the two); with
+//                         expect_uwb_of_previous_step, unless those of the step before did (`after_previous`)
 //   behavior: sensor      publishes /<vehicle>/uwb (UwbRanges) with seeded Gaussian noise
 //
 // In lockstep and fast mode each checks that it sees exactly the step it expects (none skipped, none
@@ -46,6 +47,7 @@ class TestNode : public Process {
     params.OptionalInRange("stall_s", &stall_s_, 0.0, 10.0);
     params.OptionalInRange("setup_delay_s", &setup_delay_s_, 0.0, 10.0);
     params.Optional("expect_uwb_of_step", &expect_uwb_of_step_);
+    params.Optional("expect_uwb_of_previous_step", &expect_uwb_of_previous_step_);
   }
 
   void Setup(Bus& bus) override {
@@ -67,7 +69,7 @@ class TestNode : public Process {
                                              have_state_ = true;
                                            });
     }
-    if (expect_uwb_of_step_) {
+    if (expect_uwb_of_step_ || expect_uwb_of_previous_step_) {
       bus.Subscribe<iapsim_msgs::UwbRanges>("/" + vehicle_ + "/uwb",
                                             [this](const iapsim_msgs::UwbRanges& r, const MessageInfo&) {
                                               uwb_stamp_ns_ = ToNanoseconds(r.header.stamp);
@@ -146,6 +148,12 @@ class TestNode : public Process {
       Fail("at step " + std::to_string(step.step) + " the latest ranges are stamped " +
            std::to_string(uwb_stamp_ns_) + " ns, not the step's " + std::to_string(step.stamp_ns) + " ns");
     }
+    if (expect_uwb_of_previous_step_ && uwb_stamp_ns_ < previous_stamp_ns_) {
+      Fail("at step " + std::to_string(step.step) + " the latest ranges are stamped " +
+           std::to_string(uwb_stamp_ns_) + " ns, before the previous step's " +
+           std::to_string(previous_stamp_ns_) + " ns");
+    }
+    previous_stamp_ns_ = step.stamp_ns;
     iapsim_msgs::IapCommand command;
     command.header.stamp = ToRosTime(step.stamp_ns);
     command.step = step.step;
@@ -185,6 +193,8 @@ class TestNode : public Process {
   double stall_s_ = 0.0;
   double setup_delay_s_ = 0.0;
   bool expect_uwb_of_step_ = false;
+  bool expect_uwb_of_previous_step_ = false;
+  int64_t previous_stamp_ns_ = -1;
   int64_t uwb_stamp_ns_ = -1;
   Bus* bus_ = nullptr;
   iapsim_msgs::IapState state_;
