@@ -94,6 +94,45 @@ void FillMissing(YAML::Node into, const YAML::Node& from) {
   }
 }
 
+// Lays `over` onto `into`, map by map: a value `over` has (a scalar, a list) replaces `into`'s.
+void Overlay(YAML::Node into, const YAML::Node& over) {
+  for (const auto& entry : over) {
+    const std::string key = entry.first.Scalar();
+    YAML::Node mine = into[key];
+    if (mine.IsDefined() && mine.IsMap() && entry.second.IsMap()) {
+      Overlay(mine, entry.second);
+    } else {
+      into[key] = YAML::Clone(entry.second);
+    }
+  }
+}
+
+// `base: FILE`, a scenario beside this one: this scenario is FILE with this file's keys laid over it (a
+// data-set scenario plus the processes that consume it, without copying it). The base is validated alone
+// first, so that an error in it names its own file.
+Scenario Load(const std::string& path, const std::vector<std::string>& overrides,
+              std::set<std::string> chain);
+
+YAML::Node WithBase(YAML::Node root, const std::string& path, std::set<std::string> chain) {
+  if (!root.IsMap() || !root["base"]) return root;
+  YamlMap top(root, path);
+  std::string base;
+  top.Required("base", &base);
+  if (std::filesystem::path(base).has_parent_path()) {
+    top.Fail("base", "must be a scenario beside this one (its relative paths are read from this folder)");
+  }
+  const std::string base_path = (std::filesystem::path(path).parent_path() / base).string();
+  chain.insert(std::filesystem::weakly_canonical(path).string());
+  if (chain.count(std::filesystem::weakly_canonical(base_path).string()) != 0) {
+    top.Fail("base", "'" + base + "' is this scenario or one it is based on (a cycle)");
+  }
+  Load(base_path, {}, chain);
+  YAML::Node merged = WithBase(LoadYamlFile(base_path), base_path, chain);
+  root.remove("base");
+  Overlay(merged, root);
+  return merged;
+}
+
 // `fidelity: NAME` (IAPSIM_PROFILE_DIR/NAME.yaml) or `fidelity: FILE.yaml` (relative to the scenario): each
 // process whose exec the profile lists gets the profile's keys for that exec where it does not set them.
 void ApplyFidelityProfile(YAML::Node root, const std::string& scenario_path, std::string* fidelity) {
@@ -200,7 +239,14 @@ const ProcessConfig* Scenario::Find(const std::string& process) const {
 uint64_t Scenario::SeedFor(const std::string& process) const { return StableHash(process, seed); }
 
 Scenario LoadScenario(const std::string& path, const std::vector<std::string>& overrides) {
-  YAML::Node root = LoadYamlFile(path);
+  return Load(path, overrides, {});
+}
+
+namespace {
+
+Scenario Load(const std::string& path, const std::vector<std::string>& overrides,
+              std::set<std::string> chain) {
+  YAML::Node root = WithBase(LoadYamlFile(path), path, std::move(chain));
   for (const auto& assignment : overrides) ApplyOverride(root, assignment, path);
 
   Scenario s;
@@ -330,6 +376,8 @@ Scenario LoadScenario(const std::string& path, const std::vector<std::string>& o
   s.resolved = top.Resolved();
   return s;
 }
+
+}  // namespace
 
 namespace {
 

@@ -8,7 +8,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <deque>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -27,12 +26,12 @@
 #include "bridge/message.h"
 #include "bridge/message_format.h"
 #include "bridge/scenario.h"
-#include "model/vehicle.h"
 #include "render/camera_rig.h"
+#include "sensors/imu.h"
 #include "render/image.h"
-#include "sensors/sensor_config.h"
 #include "vio/config.h"
 #include "vio/estimator.h"
+#include "vio/run_setup.h"
 #include "vio/stereo_tracker.h"
 #include "vio/trajectory_error.h"
 
@@ -51,27 +50,10 @@ struct DatasetError : std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
 
-struct SubAircraftInput {
-  std::string body;  // "iap/sub1"
-  render::CameraConfig camera;
-  vio::StereoRig rig;
-  Eigen::Isometry3d X_BI = Eigen::Isometry3d::Identity();
-  sensors::ImuNoise imu_noise;
-  std::string left_topic, right_topic, left_info_topic, imu_topic, truth_topic;
-  // vio_uwb: the tag's ranges to the scenario's anchors (the tag is at the body's origin, sensors/uwb.h)
-  std::string uwb_topic;
-  std::map<std::string, Eigen::Vector3d> anchors_W;
-  double range_sigma_m = 0.0;
-  // virpo: the flight controller's attitude (/<body>/attitude, R_WB) and the joint d_i in P; the joint is the
-  // body's origin (seed §III-A)
-  std::string attitude_topic;
-  std::optional<Eigen::Vector3d> joint_P;
-};
-
+// A ground-truth odometry message without its header and covariances (kept for every stamp of the run).
 struct TruthSample {
-  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
-  Eigen::Vector3d v_WB_W = Eigen::Vector3d::Zero();
-  Eigen::Vector3d w_WB_B = Eigen::Vector3d::Zero();
+  geometry_msgs::Pose pose;
+  geometry_msgs::Twist twist;  ///< in B (ROS)
 };
 
 struct SubAircraftResult {
@@ -84,24 +66,8 @@ struct SubAircraftResult {
 struct DatasetInput {
   std::string bag_path;
   std::string scenario_path;
-  std::vector<SubAircraftInput> subs;
-  // the platform centre, from the sub-aircraft estimates and the vehicle's joints (seed §VI-G), when every
-  // sub-aircraft of the vehicle is estimated
-  std::string platform_truth_topic;
-  std::vector<Eigen::Vector3d> joints_P;  ///< d_i, in the order of `subs`
+  vio::RunSetup setup;
 };
-
-// The params of the first process that has `key` (the renderer's cameras, the sensors' imu).
-std::optional<YAML::Node> FindParams(const bridge::Scenario& scenario, const std::string& key,
-                                     std::string* process) {
-  for (const bridge::ProcessConfig& p : scenario.processes) {
-    if (p.params.IsMap() && p.params[key]) {
-      *process = p.name;
-      return p.params;
-    }
-  }
-  return std::nullopt;
-}
 
 DatasetInput ReadDataset(const VioOfflineArgs& args, const vio::VioConfig& config) {
   DatasetInput in;
@@ -122,80 +88,12 @@ DatasetInput ReadDataset(const VioOfflineArgs& args, const vio::VioConfig& confi
                        "or give --scenario)");
   }
   const bridge::Scenario scenario = bridge::LoadScenario(in.scenario_path);
-
-  std::string render_process, sensors_process;
-  const std::optional<YAML::Node> render_params = FindParams(scenario, "cameras", &render_process);
-  const std::optional<YAML::Node> sensors_params = FindParams(scenario, "imu", &sensors_process);
-  if (!render_params) throw DatasetError(in.scenario_path + ": no process renders cameras (params.cameras)");
-  if (!sensors_params) throw DatasetError(in.scenario_path + ": no process samples an IMU (params.imu)");
-  bridge::YamlMap render_map(*render_params, scenario.file, "processes." + render_process + ".params");
-  const std::vector<render::CameraConfig> cameras = render::ReadCameras(render_map, "cameras");
-  bridge::YamlMap sensors_map(*sensors_params, scenario.file, "processes." + sensors_process + ".params");
-  const sensors::SensorsConfig sensors_config = sensors::ReadSensorsConfig(sensors_map);
-  bridge::YamlMap vehicle_map = sensors_map.Map("vehicle");
-  std::string vehicle_name;
-  vehicle_map.Required("name", &vehicle_name);
-  const model::Vehicle vehicle = model::LoadVehicle(bridge::ReadFilePath(vehicle_map, "file", scenario.file));
-  Eigen::Isometry3d X_BI = Eigen::Isometry3d::Identity();
-  X_BI.linear() = sensors_config.imu.q_BI.toRotationMatrix();
-  X_BI.translation() = sensors_config.imu.p_BI_m;
-
-  const std::set<std::string> wanted(args.sub_aircraft.begin(), args.sub_aircraft.end());
-  std::set<std::string> not_found = wanted;
-  for (const render::CameraConfig& camera : cameras) {
-    if (camera.mount.kind != render::CameraMount::Kind::kBody || !(camera.baseline_m > 0.0)) continue;
-    if (!wanted.empty() && wanted.count(camera.mount.body) == 0) continue;
-    not_found.erase(camera.mount.body);
-    SubAircraftInput sub;
-    sub.body = camera.mount.body;
-    sub.camera = camera;
-    sub.rig = vio::StereoRig::FromCamera(camera, X_BI);
-    sub.X_BI = X_BI;
-    sub.imu_noise = sensors_config.imu.noise;
-    sub.left_topic = camera.TopicNamespace(0) + "/image_raw/compressed";
-    sub.right_topic = camera.TopicNamespace(1) + "/image_raw/compressed";
-    sub.left_info_topic = camera.TopicNamespace(0) + "/camera_info";
-    sub.imu_topic = "/" + camera.mount.body + "/imu";
-    sub.truth_topic = "/" + camera.mount.body + "/odom";
-    if (args.mode != "vio") {
-      if (sensors_config.uwb.anchors.empty()) {
-        throw DatasetError(in.scenario_path + ": --mode " + args.mode + " needs UWB anchors (processes." +
-                           sensors_process + ".params.uwb.anchors or anchors_file)");
-      }
-      sub.uwb_topic = "/" + camera.mount.body + "/uwb";
-      for (const sensors::UwbAnchor& anchor : sensors_config.uwb.anchors)
-        sub.anchors_W[anchor.name] = anchor.p_WA_m;
-      sub.range_sigma_m = config.range_sigma_m.value_or(sensors_config.uwb.noise.sigma_m);
-    }
-    if (args.mode == "virpo") sub.attitude_topic = "/" + camera.mount.body + "/attitude";
-    for (const model::SubAircraft& s : vehicle.sub_aircraft) {
-      if (sub.body == vehicle_name + "/" + s.name) sub.joint_P = s.joint_P_m;
-    }
-    in.subs.push_back(sub);
-  }
-  if (!not_found.empty()) {
-    throw DatasetError(in.scenario_path + ": no stereo camera on '" + *not_found.begin() + "' (--sub)");
-  }
-  if (in.subs.empty()) {
-    throw DatasetError(in.scenario_path + ": no body-mounted stereo camera (baseline_m > 0)");
-  }
-  // VIRPO ties each sub-aircraft to the others through the platform; the centre needs every joint. A
-  // sub-aircraft's origin is its joint (seed §III-A), so the estimated origins are the joints in W.
-  std::size_t on_vehicle = 0;
-  for (const SubAircraftInput& sub : in.subs) on_vehicle += sub.joint_P.has_value();
-  if (args.mode == "virpo" && (on_vehicle != in.subs.size() || on_vehicle < 2)) {
-    throw DatasetError(in.scenario_path + ": --mode virpo needs two or more sub-aircraft of vehicle '" +
-                       vehicle_name + "' with stereo cameras (" + std::to_string(on_vehicle) + " given)");
-  }
-  if (on_vehicle == vehicle.sub_aircraft.size() && on_vehicle == in.subs.size() && on_vehicle >= 2) {
-    for (const SubAircraftInput& sub : in.subs) in.joints_P.push_back(*sub.joint_P);
-    in.platform_truth_topic = "/" + vehicle_name + "/odom";
-  }
+  in.setup = vio::ReadRunSetup(scenario, args.mode, config, args.sub_aircraft);
   return in;
 }
 
 // Every topic the estimation reads must be in the bag, and the recorded camera model must be the scenario's.
-void CheckBag(const bridge::BagReader& bag, const SubAircraftInput& sub) {
+void CheckBag(const bridge::BagReader& bag, const vio::SubAircraftSetup& sub) {
   std::map<std::string, bridge::BagTopicInfo> topics;
   for (const bridge::BagTopicInfo& t : bag.Topics()) topics[t.topic] = t;
   for (const std::string* topic : {&sub.left_topic, &sub.right_topic, &sub.left_info_topic, &sub.imu_topic,
@@ -254,6 +152,17 @@ bridge::StampedPose Stamped(int64_t t_ns, const Eigen::Isometry3d& X) {
   return pose;
 }
 
+// As `iapsim export --format tum` writes an odometry topic: the message's own numbers, not recomputed.
+bridge::StampedPose Stamped(int64_t t_ns, const geometry_msgs::Pose& pose) {
+  bridge::StampedPose stamped;
+  stamped.time_ns = t_ns;
+  const double values[7] = {pose.position.x,    pose.position.y,    pose.position.z,   pose.orientation.x,
+                            pose.orientation.y, pose.orientation.z, pose.orientation.w};
+  std::copy(values, values + 3, stamped.position);
+  std::copy(values + 3, values + 7, stamped.orientation_xyzw);
+  return stamped;
+}
+
 std::vector<vio::StampedPosition> Positions(const std::vector<bridge::StampedPose>& poses) {
   std::vector<vio::StampedPosition> positions;
   for (const bridge::StampedPose& p : poses)
@@ -303,18 +212,15 @@ using Truth = std::map<std::string, std::map<int64_t, TruthSample>>;
 
 Truth ReadTruth(const bridge::BagReader& bag, const DatasetInput& in) {
   std::vector<std::string> topics;
-  for (const SubAircraftInput& sub : in.subs) topics.push_back(sub.truth_topic);
-  if (!in.platform_truth_topic.empty()) topics.push_back(in.platform_truth_topic);
+  for (const vio::SubAircraftSetup& sub : in.setup.subs) topics.push_back(sub.truth_topic);
+  if (!in.setup.platform_truth_topic.empty()) topics.push_back(in.setup.platform_truth_topic);
   Truth truth;
   nav_msgs::Odometry odometry;
   std::string error;
   bag.ForEach(topics, [&](const bridge::BagMessage& m) {
     if (!bridge::Decode(m.bytes, &odometry, &error))
       throw DatasetError(bag.path() + ": " + m.topic + ": " + error);
-    TruthSample& s = truth[m.topic][bridge::ToNanoseconds(odometry.header.stamp)];
-    s.X_WB = PoseOf(odometry.pose.pose);
-    s.v_WB_W = s.X_WB.linear() * bridge::FromMsg(odometry.twist.twist.linear);  // the twist is in B (ROS)
-    s.w_WB_B = bridge::FromMsg(odometry.twist.twist.angular);
+    truth[m.topic][bridge::ToNanoseconds(odometry.header.stamp)] = {odometry.pose.pose, odometry.twist.twist};
     return true;
   });
   return truth;
@@ -326,7 +232,7 @@ struct SubAircraftRun {
     std::vector<uint8_t> left, right;
     bool Complete() const { return !left.empty() && !right.empty(); }
   };
-  const SubAircraftInput* input = nullptr;
+  const vio::SubAircraftSetup* input = nullptr;
   const std::map<int64_t, TruthSample>* truth = nullptr;
   vio::StereoTracker tracker;
   vio::Estimator estimator;
@@ -335,18 +241,17 @@ struct SubAircraftRun {
   /// IMU samples, attitudes and ranges in bag order, given to the estimator at its next frame
   std::vector<std::function<void(vio::Estimator&)>> inputs;
   double last_imu_t_s = -std::numeric_limits<double>::infinity();
-  double last_attitude_t_s = -std::numeric_limits<double>::infinity();
-  std::optional<vio::Estimate> newest;  ///< this step's estimate
+  std::optional<nav_msgs::Odometry> shared;  ///< this step's estimate, as the vio process publishes it
   SubAircraftResult result;
 
-  SubAircraftRun(const SubAircraftInput& sub, const vio::TrackerOptions& tracker_options,
+  SubAircraftRun(const vio::SubAircraftSetup& sub, const vio::TrackerOptions& tracker_options,
                  const vio::EstimatorOptions& options)
       : input(&sub), tracker(sub.rig, tracker_options), estimator(sub.rig, options) {}
 
   // Decodes and tracks the pair at t_ns, gives the estimator what came before it and the frame.
   void Step(const std::string& bag_path, int64_t t_ns) {
     const PendingPair& pair = pairs.at(t_ns);
-    const SubAircraftInput& sub = *input;
+    const vio::SubAircraftSetup& sub = *input;
     const double t_s = static_cast<double>(t_ns) * 1e-9;
     Clock::time_point stage = Clock::now();
     const render::Image left = render::DecodeImage(pair.left, sub.left_topic);
@@ -363,27 +268,21 @@ struct SubAircraftRun {
         throw DatasetError(bag_path + ": " + sub.truth_topic +
                            " has no ground truth at the first image's stamp " + std::to_string(t_s) + " s");
       }
-      const TruthSample& s = truth_now->second;
-      vio::NavState initial;
-      const Eigen::Isometry3d X_WI = s.X_WB * sub.X_BI;
-      initial.p_WI_m = X_WI.translation();
-      initial.q_WI = Eigen::Quaterniond(X_WI.linear());
-      initial.v_WI_W_mps = s.v_WB_W + s.X_WB.linear() * s.w_WB_B.cross(sub.X_BI.translation());
-      estimator.SetInitialState(initial);
+      nav_msgs::Odometry first;  // as the vio process gets it
+      first.pose.pose = truth_now->second.pose;
+      first.twist.twist = truth_now->second.twist;
+      estimator.SetInitialState(vio::ImuStateOf(first, sub.X_BI));
     }
-    newest = estimator.AddFrame(frame);
-    Eigen::Isometry3d X_WI = Eigen::Isometry3d::Identity();
-    X_WI.linear() = newest->state.q_WI.normalized().toRotationMatrix();
-    X_WI.translation() = newest->state.p_WI_m;
-    result.estimate.push_back(Stamped(t_ns, X_WI * sub.X_BI.inverse()));
-    if (truth_now != truth->end()) result.truth.push_back(Stamped(t_ns, truth_now->second.X_WB));
+    shared = vio::OdometryOf(estimator.AddFrame(frame), sub, t_ns);
+    result.estimate.push_back(Stamped(t_ns, shared->pose.pose));
+    if (truth_now != truth->end()) result.truth.push_back(Stamped(t_ns, PoseOf(truth_now->second.pose)));
     ++result.frames;
   }
 };
 
 // Feeds one bag message to the sub-aircraft it belongs to.
 void Dispatch(const bridge::BagMessage& m, const std::string& bag_path, SubAircraftRun* run) {
-  const SubAircraftInput& sub = *run->input;
+  const vio::SubAircraftSetup& sub = *run->input;
   std::string error;
   const auto decode = [&](auto* message) {
     if (!bridge::Decode(m.bytes, message, &error))
@@ -402,7 +301,6 @@ void Dispatch(const bridge::BagMessage& m, const std::string& bag_path, SubAircr
     sensor_msgs::Imu attitude;
     decode(&attitude);
     const double t_s = static_cast<double>(bridge::ToNanoseconds(attitude.header.stamp)) * 1e-9;
-    run->last_attitude_t_s = t_s;
     const Eigen::Quaterniond q_WI =
         bridge::FromMsg(attitude.orientation).normalized() * Eigen::Quaterniond(sub.X_BI.linear());
     run->inputs.push_back([t_s, q_WI](vio::Estimator& e) { e.AddAttitude(t_s, q_WI); });
@@ -428,9 +326,10 @@ void Dispatch(const bridge::BagMessage& m, const std::string& bag_path, SubAircr
 }
 
 // The stamp of the next step, when it can be taken: the earliest complete pair of any sub-aircraft, once
-// every sub-aircraft's IMU (and attitude, for virpo) has reached it and each has its own pair there or has
-// moved past it (a frame the renderer dropped for one sub-aircraft does not hold the others). At the end of
-// the bag, whatever is left.
+// every sub-aircraft's IMU has passed it (so everything its sensors sent at that instant, attitude and
+// ranges too, is in: what the vio process has at that step) and each has its own pair there or has moved
+// past it (a frame the renderer dropped for one sub-aircraft does not hold the others). At the end of the
+// bag, whatever is left.
 std::optional<int64_t> NextStep(const std::vector<SubAircraftRun>& runs, bool end_of_bag) {
   std::optional<int64_t> t_ns;
   for (const SubAircraftRun& run : runs) {
@@ -443,31 +342,13 @@ std::optional<int64_t> NextStep(const std::vector<SubAircraftRun>& runs, bool en
   if (!t_ns || end_of_bag) return t_ns;
   for (const SubAircraftRun& run : runs) {
     const double t_s = static_cast<double>(*t_ns) * 1e-9;
-    if (run.last_imu_t_s < t_s) return std::nullopt;
-    if (!run.input->attitude_topic.empty() && run.last_attitude_t_s < t_s) return std::nullopt;
+    if (run.last_imu_t_s <= t_s) return std::nullopt;
     const auto here = run.pairs.find(*t_ns);
     if ((here == run.pairs.end() || !here->second.Complete()) &&
         run.pairs.upper_bound(*t_ns) == run.pairs.end())
       return std::nullopt;
   }
   return t_ns;
-}
-
-// The options of each sub-aircraft's estimator: the user's, with its IMU's noise, the tag and joint at its
-// body's origin and, for virpo, the link to every other sub-aircraft.
-vio::EstimatorOptions OptionsFor(const DatasetInput& in, std::size_t i, const std::string& mode,
-                                 const vio::VioConfig& config) {
-  const SubAircraftInput& sub = in.subs[i];
-  vio::EstimatorOptions options = config.estimator;
-  options.imu_noise = sub.imu_noise;
-  options.p_IT_m = sub.X_BI.inverse().translation();  // the tag at the body's origin, in I
-  options.physical.p_IJ_m = sub.X_BI.inverse().translation();
-  if (mode == "virpo") {
-    for (std::size_t o = 0; o < in.subs.size(); ++o) {
-      if (o != i) options.physical.link_lengths_m.push_back((*sub.joint_P - *in.subs[o].joint_P).norm());
-    }
-  }
-  return options;
 }
 
 // Every sub-aircraft's estimation in one pass over the bag, in lockstep by image stamp: at each stamp the
@@ -478,14 +359,15 @@ std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const D
                                            const std::string& mode, const vio::VioConfig& config,
                                            const Truth& truth) {
   std::vector<SubAircraftRun> runs;
-  runs.reserve(in.subs.size());
+  runs.reserve(in.setup.subs.size());
   std::map<std::string, std::size_t> owner;  // topic → sub-aircraft
   std::vector<std::string> topics;
-  for (std::size_t i = 0; i < in.subs.size(); ++i) {
-    const SubAircraftInput& sub = in.subs[i];
-    runs.emplace_back(sub, config.tracker, OptionsFor(in, i, mode, config));
+  for (std::size_t i = 0; i < in.setup.subs.size(); ++i) {
+    const vio::SubAircraftSetup& sub = in.setup.subs[i];
+    runs.emplace_back(sub, config.tracker, vio::EstimatorOptionsFor(in.setup, i, mode, config));
     runs.back().truth = &truth.at(sub.truth_topic);
-    for (std::size_t o = 0; o < in.subs.size(); ++o) runs.back().peer_index.push_back(o < i ? o : o - 1);
+    for (std::size_t o = 0; o < in.setup.subs.size(); ++o)
+      runs.back().peer_index.push_back(o < i ? o : o - 1);
     for (const std::string& topic :
          {sub.imu_topic, sub.left_topic, sub.right_topic, sub.uwb_topic, sub.attitude_topic}) {
       if (topic.empty()) continue;
@@ -496,7 +378,7 @@ std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const D
   const auto step = [&](int64_t t_ns) {
     std::vector<std::size_t> stepping;
     for (std::size_t i = 0; i < runs.size(); ++i) {
-      runs[i].newest.reset();
+      runs[i].shared.reset();
       const auto pair = runs[i].pairs.find(t_ns);
       if (pair != runs[i].pairs.end() && pair->second.Complete()) stepping.push_back(i);
     }
@@ -523,7 +405,7 @@ std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const D
     for (SubAircraftRun& run : runs) run.pairs.erase(run.pairs.begin(), run.pairs.upper_bound(t_ns));
     if (mode != "virpo") return;
     for (std::size_t i : stepping) {
-      const vio::PeerJoint joint = vio::JointOf(*runs[i].newest, runs[i].input->X_BI.inverse().translation());
+      const vio::PeerJoint joint = vio::PeerJointOf(*runs[i].shared);
       for (std::size_t o : stepping) {
         if (o != i)
           runs[o].estimator.AddPeerJoint(runs[o].peer_index[i], static_cast<double>(t_ns) * 1e-9, joint);
@@ -565,14 +447,14 @@ CentreResult EstimateCentre(const DatasetInput& in, const std::vector<SubAircraf
     }
   }
   for (const auto& [t_ns, joints] : joints_W) {
-    if (joints.size() == in.joints_P.size())
-      out.estimate.push_back(Stamped(t_ns, vio::UmeyamaRigid(in.joints_P, joints)));
+    if (joints.size() == in.setup.joints_P.size())
+      out.estimate.push_back(Stamped(t_ns, vio::UmeyamaRigid(in.setup.joints_P, joints)));
   }
-  const auto platform = truth.find(in.platform_truth_topic);
+  const auto platform = truth.find(in.setup.platform_truth_topic);
   if (platform == truth.end()) return out;
   for (const bridge::StampedPose& p : out.estimate) {
     const auto it = platform->second.find(p.time_ns);
-    if (it != platform->second.end()) out.truth.push_back(Stamped(p.time_ns, it->second.X_WB));
+    if (it != platform->second.end()) out.truth.push_back(Stamped(p.time_ns, PoseOf(it->second.pose)));
   }
   return out;
 }
@@ -610,7 +492,7 @@ int Run(const VioOfflineArgs& args) {
 
   const Clock::time_point start = Clock::now();
   const bridge::BagReader bag(in.bag_path);
-  for (const SubAircraftInput& sub : in.subs) CheckBag(bag, sub);
+  for (const vio::SubAircraftSetup& sub : in.setup.subs) CheckBag(bag, sub);
   const Truth truth = ReadTruth(bag, in);
   const std::vector<SubAircraftResult> results = EstimateAll(bag, in, args.mode, config, truth);
   const double wall_s = Milliseconds(start) * 1e-3;
@@ -620,8 +502,8 @@ int Run(const VioOfflineArgs& args) {
   std::printf("  %-12s %7s %9s %8s %12s %12s %18s\n", "body", "frames", "keyframes", "failures", "ATE RMSE m",
               "aligned m", "ms/frame fe|solve");
   double sequence_s = 0.0;
-  for (std::size_t i = 0; i < in.subs.size(); ++i) {
-    const SubAircraftInput& sub = in.subs[i];
+  for (std::size_t i = 0; i < in.setup.subs.size(); ++i) {
+    const vio::SubAircraftSetup& sub = in.setup.subs[i];
     const SubAircraftResult& r = results[i];
     const double per_frame = r.frames > 0 ? 1.0 / r.frames : 0.0;
     vio::AbsoluteTrajectoryError ate, ate_aligned;
@@ -644,9 +526,9 @@ int Run(const VioOfflineArgs& args) {
                 r.front_end_ms * per_frame, r.statistics.solve_ms * per_frame);
     sequence_s = std::max(sequence_s, r.sequence_s);
   }
-  if (!in.joints_P.empty()) {
+  if (!in.setup.joints_P.empty()) {
     const std::string centre =
-        in.platform_truth_topic.substr(1, in.platform_truth_topic.rfind('/') - 1) + "/platform";
+        in.setup.platform_truth_topic.substr(1, in.setup.platform_truth_topic.rfind('/') - 1) + "/platform";
     const CentreResult c = EstimateCentre(in, results, truth);
     vio::AbsoluteTrajectoryError ate, ate_aligned;
     report["centre"] = WriteTrajectory(out_dir, centre, c.estimate, c.truth, &ate, &ate_aligned);

@@ -1,6 +1,7 @@
 #include "vio/config.h"
 
 #include <limits>
+#include <utility>
 
 namespace iapsim::vio {
 namespace {
@@ -49,22 +50,21 @@ void ReadPhysical(bridge::YamlMap& map, PhysicalConstraintOptions* o) {
 
 }  // namespace
 
-VioConfig ReadVioConfig(bridge::YamlMap& map) {
-  VioConfig config;
+VioConfig ReadVioConfig(bridge::YamlMap& map, VioConfig defaults) {
+  VioConfig config = std::move(defaults);
   bridge::YamlMap tracker = map.Map("tracker");
   ReadTracker(tracker, &config.tracker);
   bridge::YamlMap estimator = map.Map("estimator");
   ReadEstimator(estimator, &config.estimator);
   bridge::YamlMap uwb = map.Map("uwb");
   if (uwb.Has("sigma_m")) {
-    double sigma_m = 0.0;
+    double sigma_m = config.range_sigma_m.value_or(0.0);
     uwb.OptionalInRange("sigma_m", &sigma_m, 1e-6, 1e3);
     config.range_sigma_m = sigma_m;
   }
   uwb.Finish();
   bridge::YamlMap virpo = map.Map("virpo");
   ReadPhysical(virpo, &config.estimator.physical);
-  map.Finish();
   return config;
 }
 
@@ -74,7 +74,9 @@ VioConfig LoadVioConfig(const std::string& path, const std::vector<std::string>&
   if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
   for (const std::string& assignment : overrides) bridge::ApplyOverride(root, assignment, file);
   bridge::YamlMap map(root, file);
-  return ReadVioConfig(map);
+  VioConfig config = ReadVioConfig(map);
+  map.Finish();
+  return config;
 }
 
 }  // namespace iapsim::vio

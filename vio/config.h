@@ -31,8 +31,9 @@ struct VioConfig {
   std::optional<double> range_sigma_m;
 };
 
-/// Reads a VioConfig from `map` (every key checked; unknown keys are errors naming the file and line).
-VioConfig ReadVioConfig(bridge::YamlMap& map);
+/// Reads the keys above from `map` over `defaults` (each checked; the caller finishes the map, so that
+/// unknown keys are errors naming the file and line).
+VioConfig ReadVioConfig(bridge::YamlMap& map, VioConfig defaults = {});
 
 /// Loads `path` (empty: the defaults) with `overrides` ("estimator.window_keyframes=8") applied. Throws
 /// bridge::ConfigError naming the file and key.

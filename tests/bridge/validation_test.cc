@@ -206,6 +206,44 @@ TEST_F(Validation, AKeyOrAProcessGivenTwiceIsRefusedWithBothLines) {
                  ":5:3: processes.physics: given twice (first at line 3)");
 }
 
+// `base: FILE`: the base's keys with the scenario's laid over them, map by map; an error in the base names
+// the base; a base elsewhere or a cycle is refused.
+TEST_F(Validation, ABaseScenarioIsLaidUnderTheScenario) {
+  Write("base.yaml",
+        "name: base\n"
+        "duration_s: 2\n"
+        "processes:\n"
+        "  physics: {exec: iapsim_physics, role: clock, params: {a: 1, b: 2}}\n"
+        "  control: {exec: iapsim_control, rate_hz: 100}\n");
+  const Scenario derived = LoadScenario(Write("derived.yaml",
+                                              "base: base.yaml\n"
+                                              "name: derived\n"
+                                              "processes:\n"
+                                              "  physics: {params: {b: 3}}\n"
+                                              "  extra: {exec: iapsim_control, after: [control]}\n")
+                                            .string());
+  EXPECT_EQ(derived.name, "derived");
+  EXPECT_DOUBLE_EQ(derived.duration_s, 2.0);
+  ASSERT_EQ(derived.processes.size(), 4u);  // the base's two (in its order), the new one and the recorder
+  EXPECT_EQ(derived.processes[0].name, "physics");
+  EXPECT_EQ(derived.processes[0].params["a"].as<int>(), 1);
+  EXPECT_EQ(derived.processes[0].params["b"].as<int>(), 3);
+  EXPECT_DOUBLE_EQ(derived.processes[1].rate_hz, 100.0);
+  EXPECT_EQ(derived.processes[2].name, "extra");
+
+  Write("broken.yaml", "name: broken\nduration_s: .nan\n");
+  const std::string broken =
+      ErrorOf([&] { LoadScenario(Write("on_broken.yaml", "base: broken.yaml\nname: x\n").string()); });
+  EXPECT_NE(broken.find((dir_ / "broken.yaml").string() + ":2:"), std::string::npos) << broken;
+  const std::string elsewhere =
+      ErrorOf([&] { LoadScenario(Write("elsewhere.yaml", "base: ../base.yaml\nname: x\n").string()); });
+  EXPECT_NE(elsewhere.find("base: must be a scenario beside this one"), std::string::npos) << elsewhere;
+  Write("a.yaml", "base: b.yaml\nname: a\n");
+  Write("b.yaml", "base: a.yaml\nname: b\n");
+  const std::string cycle = ErrorOf([&] { LoadScenario((dir_ / "a.yaml").string()); });
+  EXPECT_NE(cycle.find("(a cycle)"), std::string::npos) << cycle;
+}
+
 TEST_F(Validation, AnOversizedFileIsRefusedBeforeItIsParsed) {
   const fs::path big = Write("big.yaml", "name: big\n# " + std::string(kMaxYamlFileBytes, 'x') + "\n");
   const std::string error = ErrorOf([&] { LoadScenario(big.string()); });

@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # `iapsim vio` end to end, as a user runs it: a short rendered run of the seed's stereo data set (all three
-# sub-aircraft), the estimator over its bag in all three modes (ATE, determinism, one sub-aircraft alone, UWB,
+# sub-aircraft) with the three iapsim_vio processes estimating live over the bus (three_star_vio.yaml), the
+# offline estimator over its bag in all three modes (VIRPO's byte for byte what the processes published) (ATE, determinism, one sub-aircraft alone, UWB,
 # VIRPO's constraints, a settings file), and the errors a user meets (a bag without images, a camera model
 # that is not the scenario's, a scenario without cameras, an unknown sub-aircraft, VIRPO with one
 # sub-aircraft, a misspelt setting), each a clear message and exit code 2.
-# usage: vio_offline_test.sh BUILD_BIN_DIR SOURCE_DIR
+# usage: vio_end_to_end_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
 # shellcheck source=tests/support/script.sh
 source "$(dirname "$0")/../support/script.sh"
@@ -12,9 +13,11 @@ source "$(dirname "$0")/../support/script.sh"
 "$iapsim" vio --help > /dev/null || fail "vio --help"
 
 # 1.5 s of the figure-eight with every stereo pair, no videos (they are for people); the renderer draws seven
-# images a frame, which on a loaded 2-core machine can take longer than the default heartbeat timeout
-"$iapsim" run "$src/configs/scenarios/three_star_stereo.yaml" --duration 1.5 --out "$work/run" \
-  --set 'evaluation.videos=[]' --set processes.render.hang_timeout_s=20 > "$work/run.out" || fail "run: $(cat "$work/run.out")"
+# images a frame, which on a loaded 2-core machine can take longer than the default heartbeat and
+# acknowledgement timeouts
+"$iapsim" run "$src/configs/scenarios/three_star_vio.yaml" --duration 1.5 --out "$work/run" \
+  --set 'evaluation.videos=[]' --set processes.render.hang_timeout_s=20 --set clock.ack_timeout_s=20 \
+  > "$work/run.out" || fail "run: $(cat "$work/run.out")"
 
 "$iapsim" vio "$work/run" --out "$work/vio" > "$work/vio.out" || fail "vio: $(cat "$work/vio.out")"
 grep -q "iap/sub3" "$work/vio.out" || fail "no table row for sub3: $(cat "$work/vio.out")"
@@ -70,6 +73,22 @@ PY
 printf 'virpo:\n  sigma_attitude_rad: 0.04\n' > "$work/virpo.yaml"
 "$iapsim" vio "$work/run" --mode virpo --config "$work/virpo.yaml" --out "$work/virpo" > /dev/null
 "$iapsim" vio "$work/run" --mode virpo --set virpo.sigma_attitude_rad=0.04 --out "$work/virpo_again" > /dev/null
+# what the processes published live is what the offline runner computes from their bag, to the last digit
+"$iapsim" vio "$work/run" --mode virpo --config "$src/configs/vio/virpo_simulated.yaml" --out "$work/simulated" \
+  > /dev/null
+for sub in sub1 sub2 sub3; do
+  "$iapsim" export "$work/run/run.bag" --topic "/iap/$sub/vio/odom" --format tum -o "$work/bus_$sub.tum" 2> /dev/null
+  [ "$(grep -vc '^#' "$work/bus_$sub.tum")" -eq 31 ] || fail "/iap/$sub/vio/odom: $(cat "$work/bus_$sub.tum")"
+  cmp -s <(grep -v '^#' "$work/bus_$sub.tum") <(grep -v '^#' "$work/simulated/iap_${sub}_estimate.tum") ||
+    fail "$sub: the vio process published other estimates than iapsim vio computes from the bag"
+done
+/usr/bin/python3 - "$work/run/metrics.json" << 'PY' || fail "vio processes: $(cat "$work/run/metrics.json")"
+import json, sys
+processes = json.load(open(sys.argv[1]))["processes"]
+for name in ("vio_sub1", "vio_sub2", "vio_sub3"):
+    p = processes[name]["process"]
+    assert p["frames"] == 31 and p["failures"] == 0 and p["kinematic_constraints"] > 0, (name, p)
+PY
 /usr/bin/python3 - "$work/virpo/vio.json" "$work/uwb/vio.json" << 'PY' || fail "virpo: $(cat "$work/virpo/vio.json")"
 import json, sys
 report, uwb = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
@@ -87,7 +106,7 @@ for sub in iap_sub1 iap_sub2 iap_sub3 iap_platform; do
 done
 
 # errors
-expect_exit 2 "--mode virpo needs two or more sub-aircraft of vehicle 'iap' with stereo cameras (1 given)" \
+expect_exit 2 "mode virpo needs two or more sub-aircraft of vehicle 'iap' with stereo cameras (1 given)" \
   "$iapsim" vio "$work/run" --mode virpo --sub iap/sub1
 expect_exit 2 "virpo.sigma_lnk_m" "$iapsim" vio "$work/run" --mode virpo --set virpo.sigma_lnk_m=0.1
 "$iapsim" run "$src/configs/scenarios/three_star_sensors.yaml" --duration 0.2 --out "$work/sensors" > /dev/null
@@ -97,6 +116,9 @@ expect_exit 2 "no messages on /iap/sub1/stereo/left/image_raw/compressed" \
 sed 's/hfov_deg: 90, baseline_m/hfov_deg: 80, baseline_m/' "$work/run/scenario.resolved.yaml" > "$work/other_camera.yaml"
 expect_exit 2 "/iap/sub1/stereo/left/camera_info: the recorded camera (640x480, fx 320.000" \
   "$iapsim" vio "$work/run/run.bag" --scenario "$work/other_camera.yaml"
-expect_exit 2 "no stereo camera on 'iap/sub9' (--sub)" "$iapsim" vio "$work/run" --sub iap/sub9
+expect_exit 2 "no stereo camera on 'iap/sub9'" "$iapsim" vio "$work/run" --sub iap/sub9
+expect_exit 2 "sub: 'sub9' has no stereo camera in this scenario" \
+  "$bin/iapsim_vio" --scenario "$src/configs/scenarios/three_star_vio.yaml" --node vio_sub1 --check \
+  --set processes.vio_sub1.params.sub=sub9
 expect_exit 2 "--mode: slam not in {vio,vio_uwb,virpo}" "$iapsim" vio "$work/run" --mode slam
 echo "vio offline: all checks passed"

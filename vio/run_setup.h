@@ -1,0 +1,69 @@
+#pragma once
+// What estimating the sub-aircraft of a run needs from its scenario, for `iapsim vio` over a bag and for
+// the vio process alike: each stereo camera on a body (intrinsics, mount, topics), the IMU's mount and noise
+// and the UWB anchors from the sensors process, the joints from the vehicle file; and the odometry each
+// sub-aircraft shares with the others (seed Fig. 4), in one form for both.
+
+#include <nav_msgs/Odometry.h>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bridge/scenario.h"
+#include "render/camera_rig.h"
+#include "sensors/imu.h"
+#include "vio/config.h"
+#include "vio/estimator.h"
+#include "vio/stereo_rig.h"
+
+namespace iapsim::vio {
+
+struct SubAircraftSetup {
+  std::string body;  ///< "iap/sub1"
+  render::CameraConfig camera;
+  StereoRig rig;
+  Eigen::Isometry3d X_BI = Eigen::Isometry3d::Identity();
+  sensors::ImuNoise imu_noise;
+  std::string left_topic, right_topic, left_info_topic, imu_topic;
+  std::string truth_topic;  ///< /<body>/odom: the first state ties the estimate to W (seed §VI-G)
+  /// vio_uwb and virpo: the tag's ranges to the anchors (the tag is at the body's origin, sensors/uwb.h)
+  std::string uwb_topic;
+  std::map<std::string, Eigen::Vector3d> anchors_W;
+  double range_sigma_m = 0.0;
+  std::string attitude_topic;              ///< virpo: the flight controller's attitude, R_WB
+  std::string odometry_topic;              ///< what the vio process publishes: /<body>/vio/odom
+  std::optional<Eigen::Vector3d> joint_P;  ///< d_i, when the body is a sub-aircraft of the vehicle
+};
+
+struct RunSetup {
+  std::string vehicle_name;
+  std::vector<SubAircraftSetup> subs;
+  /// The joints d_i in the order of `subs` and the platform's ground truth, when every sub-aircraft of the
+  /// vehicle is estimated (the centre comes from all of them).
+  std::vector<Eigen::Vector3d> joints_P;
+  std::string platform_truth_topic;
+};
+
+/// The sub-aircraft of `scenario` with a body-mounted stereo camera (those of `bodies` only, when given) for
+/// `mode` (vio, vio_uwb, virpo). Throws bridge::ConfigError naming the scenario and what is missing.
+RunSetup ReadRunSetup(const bridge::Scenario& scenario, const std::string& mode, const VioConfig& config,
+                      const std::vector<std::string>& bodies);
+
+/// The options of sub-aircraft i's estimator: the user's, with its IMU's noise, the tag and joint at its
+/// body's origin and, for virpo, the link to every other sub-aircraft of `setup` in order.
+EstimatorOptions EstimatorOptionsFor(const RunSetup& setup, std::size_t i, const std::string& mode,
+                                     const VioConfig& config);
+
+/// The odometry a sub-aircraft shares: its body's pose in W and twist in B (ROS), stamped t_ns.
+nav_msgs::Odometry OdometryOf(const Estimate& estimate, const SubAircraftSetup& sub, int64_t t_ns);
+/// The IMU's state in a body's odometry (the ground truth that starts an estimate).
+NavState ImuStateOf(const nav_msgs::Odometry& odometry, const Eigen::Isometry3d& X_BI);
+/// The joint (the body's origin, seed §III-A) in another sub-aircraft's shared odometry.
+PeerJoint PeerJointOf(const nav_msgs::Odometry& odometry);
+
+}  // namespace iapsim::vio

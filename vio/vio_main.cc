@@ -1,0 +1,213 @@
+// iapsim_vio: one sub-aircraft's estimator on the bus (seed §IV-D, Fig. 4), a lockstep participant. It reads
+// its stereo pair, IMU and, by mode, its UWB ranges and attitude estimate, and publishes its odometry at each
+// image's stamp; in virpo mode it shares that odometry with the other sub-aircraft's instances and uses
+// theirs. The estimator is vio/estimator.h, fed exactly as `iapsim vio` feeds it from a bag, so a recorded
+// run's estimates can be checked against the offline runner's.
+//
+//   params      sub: NAME (a sub-aircraft of the sensors process's vehicle, with a stereo camera)
+//               mode: vio | vio_uwb | virpo
+//               settings: FILE (vio/config.h, relative to the scenario), and tracker, estimator, uwb,
+//               virpo: the estimator's settings over it
+//   subscribes  /<vehicle>/<sub>/<camera>/{left,right}/image_raw/compressed, /<vehicle>/<sub>/imu,
+//               /<vehicle>/<sub>/odom (the first frame's ground truth ties the estimate to W, seed §VI-G),
+//               /<vehicle>/<sub>/uwb (vio_uwb, virpo), /<vehicle>/<sub>/attitude and every other
+//               sub-aircraft's /<vehicle>/<other>/vio/odom (virpo)
+//   publishes   /<vehicle>/<sub>/vio/odom  nav_msgs/Odometry (body pose in W, twist in B), at the image stamp
+//
+// Schedule: rate_hz = the camera's, `after: [render, sensors]` (a frame and its IMU arrive in the step they
+// are drawn), and in virpo `after_previous: [the other instances]`: each uses the others' odometry of the
+// frames before its own, as `iapsim vio` does, so the run is deterministic.
+
+#include <iapsim_msgs/UwbRanges.h>
+#include <malloc.h>
+#include <nav_msgs/Odometry.h>
+#include <sensor_msgs/CompressedImage.h>
+#include <sensor_msgs/Imu.h>
+
+#include <deque>
+#include <functional>
+#include <limits>
+#include <map>
+#include <optional>
+
+#include "bridge/eigen_msgs.h"
+#include "bridge/process.h"
+#include "render/image.h"
+#include "vio/config.h"
+#include "vio/estimator.h"
+#include "vio/run_setup.h"
+#include "vio/stereo_tracker.h"
+
+namespace iapsim::vio {
+namespace {
+
+double Seconds(int64_t t_ns) { return static_cast<double>(t_ns) * 1e-9; }
+
+class VioNode : public bridge::Process {
+ public:
+  VioNode(const bridge::ProcessContext& context, bridge::YamlMap& params) {
+    std::string sub_name;
+    params.Required("sub", &sub_name);
+    params.OptionalChoice("mode", &mode_, {"vio", "vio_uwb", "virpo"});
+    VioConfig settings;
+    if (params.Has("settings")) {
+      settings = LoadVioConfig(bridge::ReadFilePath(params, "settings", context.scenario.file), {});
+    }
+    const VioConfig config = ReadVioConfig(params, settings);
+    params.Finish();
+    const RunSetup all = ReadRunSetup(context.scenario, mode_, config, {});
+    for (std::size_t i = 0; i < all.subs.size(); ++i) {
+      if (all.subs[i].body == all.vehicle_name + "/" + sub_name) self_ = i;
+    }
+    if (self_ == kNone) params.Fail("sub", "'" + sub_name + "' has no stereo camera in this scenario");
+    setup_ = all;
+    const SubAircraftSetup& sub = setup_.subs[self_];
+    tracker_.emplace(sub.rig, config.tracker);
+    estimator_.emplace(sub.rig, EstimatorOptionsFor(setup_, self_, mode_, config));
+  }
+
+  void Setup(bridge::Bus& bus) override {
+    bus_ = &bus;
+    const SubAircraftSetup& sub = setup_.subs[self_];
+    bus.Subscribe<sensor_msgs::Imu>(
+        sub.imu_topic, [this](const sensor_msgs::Imu& m, const bridge::MessageInfo&) {
+          const double t_s = Seconds(bridge::ToNanoseconds(m.header.stamp));
+          sensors::ImuSample sample;
+          sample.f_I_mps2 = bridge::FromMsg(m.linear_acceleration);
+          sample.w_I_radps = bridge::FromMsg(m.angular_velocity);
+          last_imu_t_s_ = t_s;
+          inputs_.push_back([t_s, sample](Estimator& e) { e.AddImu(t_s, sample); });
+        });
+    for (const std::string* eye : {&sub.left_topic, &sub.right_topic}) {
+      const bool left = eye == &sub.left_topic;
+      bus.Subscribe<sensor_msgs::CompressedImage>(
+          *eye, [this, left](const sensor_msgs::CompressedImage& m, const bridge::MessageInfo&) {
+            Pair& pair = pairs_[bridge::ToNanoseconds(m.header.stamp)];
+            (left ? pair.left : pair.right) = m.data;
+          });
+    }
+    bus.Subscribe<nav_msgs::Odometry>(sub.truth_topic,
+                                      [this](const nav_msgs::Odometry& m, const bridge::MessageInfo&) {
+                                        if (!started_) truth_[bridge::ToNanoseconds(m.header.stamp)] = m;
+                                      });
+    if (!sub.uwb_topic.empty()) {
+      bus.Subscribe<iapsim_msgs::UwbRanges>(
+          sub.uwb_topic, [this](const iapsim_msgs::UwbRanges& m, const bridge::MessageInfo&) {
+            const SubAircraftSetup& s = setup_.subs[self_];
+            const double t_s = Seconds(bridge::ToNanoseconds(m.header.stamp));
+            for (std::size_t i = 0; i < m.peers.size() && i < m.ranges_m.size(); ++i) {
+              const auto anchor = s.anchors_W.find(m.peers[i]);
+              if (anchor == s.anchors_W.end()) continue;
+              const Eigen::Vector3d p_WA = anchor->second;
+              const double range = m.ranges_m[i], sigma = s.range_sigma_m;
+              inputs_.push_back([=](Estimator& e) { e.AddRange(t_s, p_WA, range, sigma); });
+            }
+          });
+    }
+    if (!sub.attitude_topic.empty()) {
+      bus.Subscribe<sensor_msgs::Imu>(
+          sub.attitude_topic, [this](const sensor_msgs::Imu& m, const bridge::MessageInfo&) {
+            const double t_s = Seconds(bridge::ToNanoseconds(m.header.stamp));
+            const Eigen::Quaterniond q_WI = bridge::FromMsg(m.orientation).normalized() *
+                                            Eigen::Quaterniond(setup_.subs[self_].X_BI.linear());
+            last_attitude_t_s_ = t_s;
+            inputs_.push_back([t_s, q_WI](Estimator& e) { e.AddAttitude(t_s, q_WI); });
+          });
+      // the others' odometry, kept until a frame after it is solved (peer index: order among the others)
+      for (std::size_t o = 0, peer = 0; o < setup_.subs.size(); ++o) {
+        if (o == self_) continue;
+        bus.Subscribe<nav_msgs::Odometry>(
+            setup_.subs[o].odometry_topic,
+            [this, peer](const nav_msgs::Odometry& m, const bridge::MessageInfo&) {
+              peer_odometry_[bridge::ToNanoseconds(m.header.stamp)].emplace_back(peer, m);
+            });
+        ++peer;
+      }
+    }
+  }
+
+  void Step(const bridge::StepInfo& step) override {
+    // every complete pair up to this step whose IMU (and attitude) has arrived, in order
+    while (!pairs_.empty() && pairs_.begin()->first <= step.stamp_ns) {
+      const auto& [t_ns, pair] = *pairs_.begin();
+      const double t_s = Seconds(t_ns);
+      const bool inputs_in =
+          last_imu_t_s_ >= t_s && (setup_.subs[self_].attitude_topic.empty() || last_attitude_t_s_ >= t_s);
+      if (!pair.Complete() && pairs_.size() == 1) break;  // the other eye may still come
+      if (pair.Complete() && !inputs_in && !step.final) break;
+      if (pair.Complete()) Estimate(t_ns, pair);
+      pairs_.erase(pairs_.begin());
+    }
+  }
+
+  void Finish(nlohmann::json* report) override {
+    const EstimatorStatistics& s = estimator_->statistics();
+    (*report)["frames"] = s.frames;
+    (*report)["keyframes"] = s.keyframes;
+    (*report)["failures"] = s.failures;
+    (*report)["last_failure"] = s.last_failure;
+    (*report)["ranges_used"] = s.ranges_used;
+    (*report)["attitude_constraints"] = s.attitude_constraints;
+    (*report)["kinematic_constraints"] = s.kinematic_constraints;
+    const double per_frame = s.frames > 0 ? 1.0 / s.frames : 0.0;
+    (*report)["ms_per_frame"] = {{"solve", s.solve_ms * per_frame},
+                                 {"marginalisation", s.marginalisation_ms * per_frame}};
+  }
+
+ private:
+  struct Pair {
+    std::vector<uint8_t> left, right;
+    bool Complete() const { return !left.empty() && !right.empty(); }
+  };
+  static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+
+  void Estimate(int64_t t_ns, const Pair& pair) {
+    const SubAircraftSetup& sub = setup_.subs[self_];
+    const StereoFrame frame = tracker_->Track(Seconds(t_ns), render::DecodeImage(pair.left, sub.left_topic),
+                                              render::DecodeImage(pair.right, sub.right_topic));
+    for (const auto& give : inputs_) give(*estimator_);
+    inputs_.clear();
+    // the others' odometry of the frames before this one (that of this frame is being solved beside it)
+    while (!peer_odometry_.empty() && peer_odometry_.begin()->first < t_ns) {
+      for (const auto& [peer, odometry] : peer_odometry_.begin()->second)
+        estimator_->AddPeerJoint(peer, Seconds(peer_odometry_.begin()->first), PeerJointOf(odometry));
+      peer_odometry_.erase(peer_odometry_.begin());
+    }
+    if (!started_) {
+      const auto truth = truth_.find(t_ns);
+      if (truth == truth_.end()) {
+        throw std::runtime_error(sub.truth_topic + " has no ground truth at the first image's stamp " +
+                                 std::to_string(Seconds(t_ns)) + " s");
+      }
+      estimator_->SetInitialState(ImuStateOf(truth->second, sub.X_BI));
+      started_ = true;
+      truth_.clear();
+    }
+    bus_->Publish(sub.odometry_topic, OdometryOf(estimator_->AddFrame(frame), sub, t_ns));
+  }
+
+  std::string mode_ = "vio";
+  RunSetup setup_;
+  std::size_t self_ = kNone;
+  std::optional<StereoTracker> tracker_;
+  std::optional<Estimator> estimator_;
+  bridge::Bus* bus_ = nullptr;
+  std::map<int64_t, Pair> pairs_;
+  std::vector<std::function<void(Estimator&)>> inputs_;
+  std::map<int64_t, std::vector<std::pair<std::size_t, nav_msgs::Odometry>>> peer_odometry_;
+  std::map<int64_t, nav_msgs::Odometry> truth_;
+  bool started_ = false;
+  double last_imu_t_s_ = -std::numeric_limits<double>::infinity();
+  double last_attitude_t_s_ = -std::numeric_limits<double>::infinity();
+};
+
+}  // namespace
+}  // namespace iapsim::vio
+
+int main(int argc, char** argv) {
+  // as iapsim_vio_offline: keep image-sized buffers on the heap, not mmapped afresh at every frame
+  mallopt(M_MMAP_THRESHOLD, 256 << 20);
+  mallopt(M_TRIM_THRESHOLD, 512 << 20);
+  return iapsim::bridge::ProcessMainFor<iapsim::vio::VioNode>(
+      argc, argv, "iapsim vio: one sub-aircraft's visual-inertial(-range-physical) odometry (seed IV-D)");
+}
