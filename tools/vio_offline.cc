@@ -58,6 +58,7 @@ struct TruthSample {
 
 struct SubAircraftResult {
   std::vector<bridge::StampedPose> estimate, truth;  // of the body B, at the image stamps
+  std::map<int64_t, nav_msgs::Odometry> shared;      // the estimates as the vio process publishes them
   vio::EstimatorStatistics statistics;
   double decode_ms = 0.0, front_end_ms = 0.0, sequence_s = 0.0;
   int frames = 0;
@@ -275,6 +276,7 @@ struct SubAircraftRun {
     }
     shared = vio::OdometryOf(estimator.AddFrame(frame), sub, t_ns);
     result.estimate.push_back(Stamped(t_ns, shared->pose.pose));
+    result.shared[t_ns] = *shared;
     if (truth_now != truth->end()) result.truth.push_back(Stamped(t_ns, PoseOf(truth_now->second.pose)));
     ++result.frames;
   }
@@ -440,15 +442,15 @@ struct CentreResult {
 CentreResult EstimateCentre(const DatasetInput& in, const std::vector<SubAircraftResult>& results,
                             const Truth& truth) {
   CentreResult out;
-  std::map<int64_t, std::vector<Eigen::Vector3d>> joints_W;
+  std::map<int64_t, std::vector<nav_msgs::Odometry>> at;
   for (const SubAircraftResult& r : results) {
-    for (const bridge::StampedPose& p : r.estimate) {
-      joints_W[p.time_ns].emplace_back(p.position[0], p.position[1], p.position[2]);
-    }
+    for (const auto& [t_ns, odometry] : r.shared) at[t_ns].push_back(odometry);
   }
-  for (const auto& [t_ns, joints] : joints_W) {
-    if (joints.size() == in.setup.joints_P.size())
-      out.estimate.push_back(Stamped(t_ns, vio::UmeyamaRigid(in.setup.joints_P, joints)));
+  for (const auto& [t_ns, subs] : at) {
+    if (subs.size() != in.setup.joints_P.size()) continue;
+    const nav_msgs::Odometry platform =
+        vio::PlatformOdometryOf(in.setup.joints_P, subs, in.setup.vehicle_name);
+    out.estimate.push_back(Stamped(t_ns, platform.pose.pose));
   }
   const auto platform = truth.find(in.setup.platform_truth_topic);
   if (platform == truth.end()) return out;

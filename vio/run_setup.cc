@@ -5,6 +5,8 @@
 #include "bridge/eigen_msgs.h"
 #include "model/vehicle.h"
 #include "sensors/sensor_config.h"
+#include "vio/so3.h"
+#include "vio/trajectory_error.h"
 
 namespace iapsim::vio {
 namespace {
@@ -123,6 +125,31 @@ nav_msgs::Odometry OdometryOf(const Estimate& estimate, const SubAircraftSetup& 
   odometry.pose.pose.orientation = bridge::ToQuaternionMsg(Eigen::Quaterniond(X_WB.linear()));
   odometry.twist.twist.linear = bridge::ToVector3Msg(X_WB.linear().transpose() * origin.v_WJ_W_mps);
   odometry.twist.twist.angular = bridge::ToVector3Msg(sub.X_BI.linear() * estimate.w_I_radps);
+  return odometry;
+}
+
+nav_msgs::Odometry PlatformOdometryOf(const std::vector<Eigen::Vector3d>& joints_P,
+                                      const std::vector<nav_msgs::Odometry>& subs,
+                                      const std::string& vehicle) {
+  std::vector<Eigen::Vector3d> joints_W;
+  for (const nav_msgs::Odometry& sub : subs) joints_W.push_back(PeerJointOf(sub).p_WJ_m);
+  const Eigen::Isometry3d X_WP = UmeyamaRigid(joints_P, joints_W);
+  // [I  −[r_i]×] [v_P; ω] = v_i for every joint, r_i = R_WP d_i
+  Eigen::MatrixXd A(3 * subs.size(), 6);
+  Eigen::VectorXd b(3 * subs.size());
+  for (std::size_t i = 0; i < subs.size(); ++i) {
+    A.block<3, 3>(3 * i, 0).setIdentity();
+    A.block<3, 3>(3 * i, 3) = -Skew(X_WP.linear() * joints_P[i]);
+    b.segment<3>(3 * i) = PeerJointOf(subs[i]).v_WJ_W_mps;
+  }
+  const Eigen::Matrix<double, 6, 1> twist_W = A.colPivHouseholderQr().solve(b);
+  nav_msgs::Odometry odometry;
+  odometry.header = subs.front().header;
+  odometry.child_frame_id = vehicle + "/platform";
+  odometry.pose.pose.position = bridge::ToPointMsg(X_WP.translation());
+  odometry.pose.pose.orientation = bridge::ToQuaternionMsg(Eigen::Quaterniond(X_WP.linear()));
+  odometry.twist.twist.linear = bridge::ToVector3Msg(X_WP.linear().transpose() * twist_W.head<3>());
+  odometry.twist.twist.angular = bridge::ToVector3Msg(X_WP.linear().transpose() * twist_W.tail<3>());
   return odometry;
 }
 

@@ -61,6 +61,14 @@ EstimatorOptions EstimatorOptionsFor(const RunSetup& setup, std::size_t i, const
 
 /// The odometry a sub-aircraft shares: its body's pose in W and twist in B (ROS), stamped t_ns.
 nav_msgs::Odometry OdometryOf(const Estimate& estimate, const SubAircraftSetup& sub, int64_t t_ns);
+/// The platform's odometry from every sub-aircraft's at one stamp (`subs` in the order of `joints_P`, the
+/// joints d_i in P): the pose is the rigid transform that best carries the joints onto the estimated ones
+/// (UmeyamaRigid; a sub-aircraft's origin is its joint), the twist the rigid-body velocity that best
+/// explains theirs (v_i = v_P + ω × R_WP d_i, least squares), in P. Frame ids `vehicle`/platform in W.
+nav_msgs::Odometry PlatformOdometryOf(const std::vector<Eigen::Vector3d>& joints_P,
+                                      const std::vector<nav_msgs::Odometry>& subs,
+                                      const std::string& vehicle);
+
 /// The IMU's state in a body's odometry (the ground truth that starts an estimate).
 NavState ImuStateOf(const nav_msgs::Odometry& odometry, const Eigen::Isometry3d& X_BI);
 /// The joint (the body's origin, seed §III-A) in another sub-aircraft's shared odometry.

@@ -1,4 +1,5 @@
-// iapsim_vio: one sub-aircraft's estimator on the bus (seed §IV-D, Fig. 4), a lockstep participant. It reads
+// iapsim_vio: one sub-aircraft's estimator on the bus (seed §IV-D, Fig. 4), a lockstep participant, or the
+// platform's from theirs (`platform: true`). A sub-aircraft's instance reads
 // its stereo pair, IMU and, by mode, its UWB ranges and attitude estimate, and publishes its odometry at each
 // image's stamp; in virpo mode it shares that odometry with the other sub-aircraft's instances and uses
 // theirs. The estimator is vio/estimator.h, fed exactly as `iapsim vio` feeds it from a bag, so a recorded
@@ -17,6 +18,10 @@
 // Schedule: rate_hz = the camera's, `after: [render, sensors]` (a frame and its IMU arrive in the step they
 // are drawn), and in virpo `after_previous: [the other instances]`: each uses the others' odometry of the
 // frames before its own, as `iapsim vio` does, so the run is deterministic.
+//
+// With `platform: true` (and no other params) it estimates the platform from every sub-aircraft's odometry
+// at each stamp (PlatformOdometryOf: the joints fitted rigidly) and publishes /<vehicle>/vio/odom (pose in
+// W, twist in P, the form the controller's odometry_topic reads); give it `after: [every instance]`.
 
 #include <iapsim_msgs/UwbRanges.h>
 #include <malloc.h>
@@ -201,6 +206,63 @@ class VioNode : public bridge::Process {
   double last_attitude_t_s_ = -std::numeric_limits<double>::infinity();
 };
 
+class PlatformNode : public bridge::Process {
+ public:
+  PlatformNode(const bridge::ProcessContext& context, bridge::YamlMap& params) {
+    bool platform = false;
+    params.Required("platform", &platform);
+    if (!platform)
+      params.Fail("platform", "is true for the platform's instance; give `sub` for a sub-aircraft's");
+    params.Finish();
+    setup_ = ReadRunSetup(context.scenario, "vio", VioConfig{}, {});
+    if (setup_.joints_P.empty()) {
+      params.Fail("platform",
+                  "needs a stereo camera on every sub-aircraft of vehicle '" + setup_.vehicle_name + "'");
+    }
+  }
+
+  void Setup(bridge::Bus& bus) override {
+    bus_ = &bus;
+    for (std::size_t i = 0; i < setup_.subs.size(); ++i) {
+      bus.Subscribe<nav_msgs::Odometry>(setup_.subs[i].odometry_topic,
+                                        [this, i](const nav_msgs::Odometry& m, const bridge::MessageInfo&) {
+                                          auto& at = odometry_[bridge::ToNanoseconds(m.header.stamp)];
+                                          at.resize(setup_.subs.size());
+                                          at[i] = m;
+                                        });
+    }
+  }
+
+  void Step(const bridge::StepInfo& step) override {
+    while (!odometry_.empty() && odometry_.begin()->first <= step.stamp_ns) {
+      std::vector<nav_msgs::Odometry> subs;
+      for (const auto& odometry : odometry_.begin()->second) {
+        if (odometry) subs.push_back(*odometry);
+      }
+      if (subs.size() == setup_.subs.size()) {
+        bus_->Publish("/" + setup_.vehicle_name + "/vio/odom",
+                      PlatformOdometryOf(setup_.joints_P, subs, setup_.vehicle_name));
+        ++published_;
+      } else {
+        ++incomplete_;  // a sub-aircraft had no estimate at this stamp
+      }
+      odometry_.erase(odometry_.begin());
+    }
+  }
+
+  void Finish(nlohmann::json* report) override {
+    (*report)["published"] = published_;
+    (*report)["stamps_without_every_sub_aircraft"] = incomplete_;
+  }
+
+ private:
+  RunSetup setup_;
+  bridge::Bus* bus_ = nullptr;
+  std::map<int64_t, std::vector<std::optional<nav_msgs::Odometry>>> odometry_;
+  int published_ = 0;
+  int incomplete_ = 0;
+};
+
 }  // namespace
 }  // namespace iapsim::vio
 
@@ -208,6 +270,12 @@ int main(int argc, char** argv) {
   // as iapsim_vio_offline: keep image-sized buffers on the heap, not mmapped afresh at every frame
   mallopt(M_MMAP_THRESHOLD, 256 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
-  return iapsim::bridge::ProcessMainFor<iapsim::vio::VioNode>(
-      argc, argv, "iapsim vio: one sub-aircraft's visual-inertial(-range-physical) odometry (seed IV-D)");
+  return iapsim::bridge::ProcessMain(
+      argc, argv,
+      "iapsim vio: a sub-aircraft's visual-inertial(-range-physical) odometry, or the platform's (seed IV-D)",
+      [](const iapsim::bridge::ProcessContext& context,
+         iapsim::bridge::YamlMap& params) -> std::unique_ptr<iapsim::bridge::Process> {
+        if (params.Has("platform")) return std::make_unique<iapsim::vio::PlatformNode>(context, params);
+        return std::make_unique<iapsim::vio::VioNode>(context, params);
+      });
 }

@@ -82,12 +82,18 @@ for sub in sub1 sub2 sub3; do
   cmp -s <(grep -v '^#' "$work/bus_$sub.tum") <(grep -v '^#' "$work/simulated/iap_${sub}_estimate.tum") ||
     fail "$sub: the vio process published other estimates than iapsim vio computes from the bag"
 done
+# and the platform's instance, from the three, is the offline runner's centre
+"$iapsim" export "$work/run/run.bag" --topic /iap/vio/odom --format tum -o "$work/bus_platform.tum" 2> /dev/null
+cmp -s <(grep -v '^#' "$work/bus_platform.tum") <(grep -v '^#' "$work/simulated/iap_platform_estimate.tum") ||
+  fail "the platform's vio process published another centre than iapsim vio computes"
 /usr/bin/python3 - "$work/run/metrics.json" << 'PY' || fail "vio processes: $(cat "$work/run/metrics.json")"
 import json, sys
 processes = json.load(open(sys.argv[1]))["processes"]
 for name in ("vio_sub1", "vio_sub2", "vio_sub3"):
     p = processes[name]["process"]
     assert p["frames"] == 31 and p["failures"] == 0 and p["kinematic_constraints"] > 0, (name, p)
+platform = processes["vio_platform"]["process"]
+assert platform["published"] == 31 and platform["stamps_without_every_sub_aircraft"] == 0, platform
 PY
 /usr/bin/python3 - "$work/virpo/vio.json" "$work/uwb/vio.json" << 'PY' || fail "virpo: $(cat "$work/virpo/vio.json")"
 import json, sys
