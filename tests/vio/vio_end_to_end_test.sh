@@ -111,6 +111,10 @@ for sub in iap_sub1 iap_sub2 iap_sub3 iap_platform; do
   cmp -s "$work/virpo/${sub}_estimate.tum" "$work/virpo_again/${sub}_estimate.tum" || fail "virpo: $sub differs"
 done
 
+# flying on the estimate: the scenario and every process's params are valid (the flight itself is long)
+"$iapsim" run "$src/configs/scenarios/three_star_vio_flight.yaml" --check --out "$work/flight_check" > /dev/null ||
+  fail "three_star_vio_flight.yaml does not check"
+
 # errors
 expect_exit 2 "mode virpo needs two or more sub-aircraft of vehicle 'iap' with stereo cameras (1 given)" \
   "$iapsim" vio "$work/run" --mode virpo --sub iap/sub1
