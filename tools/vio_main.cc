@@ -1,5 +1,5 @@
 // iapsim_vio_offline: `iapsim vio` (tools/vio_offline.h), which `iapsim vio ...` execs.
-//   iapsim vio RUN_DIR|BAG [--mode vio|vio_uwb|virpo] [--scenario S] [--sub BODY]... [--config F] [--set
+//   iapsim vio RUN_DIR|BAG [--mode vio|vio_uwb|virpo|all] [--scenario S] [--sub BODY]... [--config F] [--set
 //   K=V]...
 //              [--out DIR]
 
@@ -23,12 +23,14 @@ int main(int argc, char** argv) {
   app.add_option("input", args.input, "a run directory (run.bag, scenario.resolved.yaml) or a bag")
       ->required()
       ->check(CLI::ExistingPath);
-  app.add_option("--mode", args.mode,
-                 "estimator: vio (the paper's VINS baseline), vio_uwb (plus ranges to the scenario's "
-                 "anchors) or virpo "
-                 "(plus the attitude estimate and the other sub-aircraft through the platform, eq. 22)")
+  app.add_option(
+         "--mode", args.mode,
+         "estimator: vio (the paper's VINS baseline), vio_uwb (plus ranges to the scenario's "
+         "anchors) or virpo "
+         "(plus the attitude estimate and the other sub-aircraft through the platform, eq. 22), or all three "
+         "and a table like the paper's Table VIII")
       ->capture_default_str()
-      ->check(CLI::IsMember({"vio", "vio_uwb", "virpo"}));
+      ->check(CLI::IsMember({"vio", "vio_uwb", "virpo", "all"}));
   app.add_option("--scenario", args.scenario, "with a bag: the scenario it was recorded from")
       ->check(CLI::ExistingFile);
   app.add_option("--sub", args.sub_aircraft, "a body to estimate, e.g. iap/sub1 (repeatable; default: all)");

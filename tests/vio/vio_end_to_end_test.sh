@@ -19,8 +19,20 @@ source "$(dirname "$0")/../support/script.sh"
   --set 'evaluation.videos=[]' --set processes.render.hang_timeout_s=20 --set clock.ack_timeout_s=20 \
   > "$work/run.out" || fail "run: $(cat "$work/run.out")"
 
-"$iapsim" vio "$work/run" --out "$work/vio" > "$work/vio.out" || fail "vio: $(cat "$work/vio.out")"
+# the three modes at once (vio_all/vio, vio_uwb, virpo) and the table of their ATEs
+"$iapsim" vio "$work/run" --mode all --out "$work/all" > "$work/vio.out" || fail "vio: $(cat "$work/vio.out")"
 grep -q "iap/sub3" "$work/vio.out" || fail "no table row for sub3: $(cat "$work/vio.out")"
+grep -q "| iap/sub1 VIO | iap/sub1 VIO+UWB | iap/sub1 VIRPO |" "$work/all/table.md" || fail "$(cat "$work/all/table.md")"
+/usr/bin/python3 - "$work/all/table.json" << 'PY' || fail "table.json: $(cat "$work/all/table.json")"
+import json, sys
+table = json.load(open(sys.argv[1]))
+assert sorted(table) == ["iap/platform", "iap/sub1", "iap/sub2", "iap/sub3"], sorted(table)
+for body, row in table.items():
+    assert all(0 < row[mode] < 0.03 for mode in ("vio", "vio_uwb", "virpo")), (body, row)
+    assert abs(row["virpo_gain_over_vio_uwb"] - (1 - row["virpo"] / row["vio_uwb"])) < 1e-12, (body, row)
+PY
+ln -s "$work/all/vio" "$work/vio"
+ln -s "$work/all/vio_uwb" "$work/uwb"
 /usr/bin/python3 - "$work/vio/vio.json" << 'PY' || fail "vio.json: $(cat "$work/vio/vio.json")"
 import json, sys
 report = json.load(open(sys.argv[1]))
@@ -56,7 +68,6 @@ for other in iap_sub1 iap_sub3 iap_platform; do
 done
 
 # with the UWB ranges to the scenario's anchors (Table X): every range of the run joins the estimate
-"$iapsim" vio "$work/run" --mode vio_uwb --out "$work/uwb" > /dev/null
 /usr/bin/python3 - "$work/uwb/vio.json" << 'PY' || fail "vio_uwb: $(cat "$work/uwb/vio.json")"
 import json, sys
 report = json.load(open(sys.argv[1]))
@@ -130,5 +141,5 @@ expect_exit 2 "no stereo camera on 'iap/sub9'" "$iapsim" vio "$work/run" --sub i
 expect_exit 2 "sub: 'sub9' has no stereo camera in this scenario" \
   "$bin/iapsim_vio" --scenario "$src/configs/scenarios/three_star_vio.yaml" --node vio_sub1 --check \
   --set processes.vio_sub1.params.sub=sub9
-expect_exit 2 "--mode: slam not in {vio,vio_uwb,virpo}" "$iapsim" vio "$work/run" --mode slam
+expect_exit 2 "--mode: slam not in {vio,vio_uwb,virpo,all}" "$iapsim" vio "$work/run" --mode slam
 echo "vio offline: all checks passed"
