@@ -118,6 +118,8 @@ class VioNode : public bridge::Process {
             last_attitude_t_s_ = t_s;
             inputs_.push_back([t_s, q_WI](Estimator& e) { e.AddAttitude(t_s, q_WI); });
           });
+    }
+    if (mode_ == "virpo") {
       // the others' odometry, kept until a frame after it is solved (peer index: order among the others)
       for (std::size_t o = 0, peer = 0; o < setup_.subs.size(); ++o) {
         if (o == self_) continue;
