@@ -13,7 +13,7 @@ using testing::KnownMotion;
 
 // The odometry of a body whose origin is the joint at d (in P) of the platform moving as KnownMotion, with
 // an attitude of its own (a spherical joint leaves it free).
-nav_msgs::Odometry SubAircraftOdometry(double t, const Eigen::Vector3d& d_P, const Eigen::Quaterniond& q_WB) {
+nav_msgs::Odometry JointBodyOdometry(double t, const Eigen::Vector3d& d_P, const Eigen::Quaterniond& q_WB) {
   const Eigen::Isometry3d X_WP = KnownMotion::Pose(t);
   const Eigen::Vector3d w_P = KnownMotion::Kinematics(t).w_WB_B_radps;
   nav_msgs::Odometry odometry;
@@ -33,7 +33,7 @@ TEST(RunSetupTest, ThePlatformFromItsJointsIsTheRigidMotion) {
     std::vector<nav_msgs::Odometry> subs;
     for (std::size_t i = 0; i < joints_P.size(); ++i)
       subs.push_back(
-          SubAircraftOdometry(t, joints_P[i], ExpQuaternion(Eigen::Vector3d(0.1 * i, -0.2, 0.3 * i))));
+          JointBodyOdometry(t, joints_P[i], ExpQuaternion(Eigen::Vector3d(0.1 * i, -0.2, 0.3 * i))));
     const nav_msgs::Odometry platform = PlatformOdometryOf(joints_P, subs, "iap");
     EXPECT_EQ(platform.child_frame_id, "iap/platform");
     const Eigen::Isometry3d X_WP = KnownMotion::Pose(t);
