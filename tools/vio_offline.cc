@@ -362,8 +362,9 @@ std::optional<int64_t> NextStep(const std::vector<SubAircraftRun>& runs, bool en
   return t_ns;
 }
 
-// One thread per sub-aircraft for the whole run, stepping it when told: its tracker's and estimator's memory
-// stays with one thread and core (a fresh thread per sub-aircraft and stamp made the runner 20 % slower).
+// One thread per sub-aircraft for the whole run, stepping it when told, so that the bag can be read on while
+// they step (with a thread started per stamp and joined before reading on, VIO on (a)-2 ran at 0.75x real
+// time; with these and the reading overlapped, 0.82x).
 class StepWorkers {
  public:
   explicit StepWorkers(std::size_t count) : due_(count, false), failures_(count) {
