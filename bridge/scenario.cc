@@ -45,7 +45,8 @@ void ReadTopicList(YamlMap& map, const std::string& key, std::vector<std::string
 // `after` names processes of the scenario other than the clock owner and itself, without a cycle (which
 // would stall the lockstep: each process waiting for the other's ack); `after_previous` the same, with
 // cycles allowed (each waits only for acks the clock already waited for)
-void CheckStepOrder(const std::vector<ProcessConfig>& processes, const std::map<std::string, YamlMap>& entries) {
+void CheckStepOrder(const std::vector<ProcessConfig>& processes,
+                    const std::map<std::string, YamlMap>& entries) {
   std::map<std::string, const ProcessConfig*> by_name;
   for (const auto& p : processes) by_name[p.name] = &p;
   for (const auto& p : processes) {
@@ -94,13 +95,19 @@ void FillMissing(YAML::Node into, const YAML::Node& from) {
   }
 }
 
-// Lays `over` onto `into`, map by map: a value `over` has (a scalar, a list) replaces `into`'s.
-void Overlay(YAML::Node into, const YAML::Node& over) {
+// Lays `over` (read from `path`) onto `into`, map by map: a value `over` has (a scalar, a list) replaces
+// `into`'s, and a key set to null (`~`) removes `into`'s (a flight that replays commands instead of flying
+// the base's trajectory).
+void Overlay(YAML::Node into, const YAML::Node& over, const std::string& path, const std::string& key_path) {
   for (const auto& entry : over) {
     const std::string key = entry.first.Scalar();
     YAML::Node mine = into[key];
-    if (mine.IsDefined() && mine.IsMap() && entry.second.IsMap()) {
-      Overlay(mine, entry.second);
+    if (entry.second.IsNull()) {
+      if (!mine.IsDefined() || !into.remove(key)) {
+        YamlMap(over, path, key_path).Fail(key, "~ removes a key of the base scenario, which has none here");
+      }
+    } else if (mine.IsDefined() && mine.IsMap() && entry.second.IsMap()) {
+      Overlay(mine, entry.second, path, key_path.empty() ? key : key_path + "." + key);
     } else {
       into[key] = YAML::Clone(entry.second);
     }
@@ -129,7 +136,7 @@ YAML::Node WithBase(YAML::Node root, const std::string& path, std::set<std::stri
   Load(base_path, {}, chain);
   YAML::Node merged = WithBase(LoadYamlFile(base_path), base_path, chain);
   root.remove("base");
-  Overlay(merged, root);
+  Overlay(merged, root, path, "");
   return merged;
 }
 
@@ -299,7 +306,8 @@ Scenario Load(const std::string& path, const std::vector<std::string>& overrides
 
   // what `iapsim run` computes from the recording afterwards; tools/ validates it
   s.evaluation = top.Raw("evaluation");
-  if (s.evaluation && !s.evaluation.IsMap()) top.Fail("evaluation", "expected a map (for example tracking: {...})");
+  if (s.evaluation && !s.evaluation.IsMap())
+    top.Fail("evaluation", "expected a map (for example tracking: {...})");
 
   const YAML::Node processes = top.Raw("processes");
   if (!processes || !processes.IsMap() || processes.size() == 0) {

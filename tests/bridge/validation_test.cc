@@ -230,6 +230,20 @@ TEST_F(Validation, ABaseScenarioIsLaidUnderTheScenario) {
   EXPECT_EQ(derived.processes[0].params["b"].as<int>(), 3);
   EXPECT_DOUBLE_EQ(derived.processes[1].rate_hz, 100.0);
   EXPECT_EQ(derived.processes[2].name, "extra");
+  // `~` removes a key of the base (and only one it has)
+  const Scenario trimmed = LoadScenario(
+      Write("trimmed.yaml",
+            "base: base.yaml\nname: trimmed\nprocesses:\n  physics: {params: {a: ~}}\n  control: ~\n")
+          .string());
+  ASSERT_EQ(trimmed.processes.size(), 2u);  // physics and the recorder
+  EXPECT_FALSE(trimmed.processes[0].params["a"].IsDefined());
+  EXPECT_EQ(trimmed.processes[0].params["b"].as<int>(), 2);
+  const std::string absent = ErrorOf([&] {
+    LoadScenario(Write("absent.yaml", "base: base.yaml\nname: x\nprocesses:\n  physics: {c: ~}\n").string());
+  });
+  EXPECT_NE(absent.find("absent.yaml:4:"), std::string::npos) << absent;
+  EXPECT_NE(absent.find("processes.physics.c: ~ removes a key of the base scenario"), std::string::npos)
+      << absent;
 
   Write("broken.yaml", "name: broken\nduration_s: .nan\n");
   const std::string broken =
