@@ -6,7 +6,9 @@
   buildings.yaml    a cluster of 16 buildings with window facades on asphalt streets around a concrete square
   station_hall.yaml a 60 x 24 m station hall: tiled floor, brick walls, two rows of pillars, a roof of beams
                     with skylights between them (stripes of sun), parked F450s and docking parts on stands
+  broad_station.yaml a 100 x 50 m station: the hall's materials, four rows of pillars, a higher roof
   foggy_arena.yaml  a 30 m arena ringed by barriers and posts, in fog (0.04 /m: 30% visibility at 30 m)
+  bright_arena.yaml the same arena in clear air under a high sun
 
 Deterministic: building sizes come from random.Random(seed) (the Mersenne Twister's random() is the same
 on every Python 3), numbers are printed with fixed precision. Keys: render/README.md. W is NED (z down):
@@ -78,14 +80,30 @@ objects:
     open(os.path.join(folder, "buildings.yaml"), "w").write("".join(out))
 
 
-def station_hall(folder):
-    out = [HEADER, """# A station hall (seed Fig. 17 (b), "narrow station"): 60 x 24 x 10 m, tiled floor, brick walls, two rows of
-# pillars, a roof of beams with skylights between them, F450s and docking parts parked on stands.
-name: station_hall
+# The two stations of seed Fig. 17 (b) and (c): one generator, the hall's size and pillar grid as parameters.
+STATIONS = {
+    "station_hall": dict(
+        comment="""# A station hall (seed Fig. 17 (b), "narrow station"): 60 x 24 x 10 m, tiled floor, brick walls, two rows of
+# pillars, a roof of beams with skylights between them, F450s and docking parts parked on stands.""",
+        length=60.0, width=24.0, height=10.0, pillar_x=range(-24, 25, 6), pillar_y=(-4.0, 4.0), edge_y=7.0,
+        shadow_radius=36),
+    "broad_station": dict(
+        comment="""# A broad station (seed Fig. 17 (c)): 100 x 50 x 14 m, the station hall's materials, four rows of pillars 10 m
+# apart with platform edges between them, the same roof of beams and skylights, parked F450s and docking parts.""",
+        length=100.0, width=50.0, height=14.0, pillar_x=range(-40, 41, 10), pillar_y=(-15.0, -5.0, 5.0, 15.0),
+        edge_y=10.0, shadow_radius=60),
+}
+
+
+def station(folder, name):
+    s = STATIONS[name]
+    length, width, height = s["length"], s["width"], s["height"]
+    out = [HEADER, s["comment"] + """
+name: %s
 sky_color: [0.62, 0.74, 0.9]
 ambient: {color: [1.0, 0.97, 0.92], intensity: 0.45}
 sun: {direction: [0.25, 0.4, 1.0], color: [1.0, 0.96, 0.88], intensity: 1.1, shadows: true,
-      shadow_resolution: 2048, shadow_radius_m: 36}
+      shadow_resolution: 2048, shadow_radius_m: %d}
 textures:
   floor: {pattern: tiles, color_a: [0.78, 0.76, 0.72], color_b: [0.55, 0.53, 0.5], color_c: [0.25, 0.25, 0.25],
           size_px: 512, cells: 8, seed: 31}
@@ -101,40 +119,45 @@ materials:
   steel: {color: [0.55, 0.57, 0.6], specular: 0.6, shininess: 80}
 objects:
   - {name: ground, plane: [200, 200], material: concrete, texture_scale_m: 6}
-  - {name: floor, box: [60, 24, 0.1], material: floor, position_m: [0, 0, -0.05], texture_scale_m: 4}
-"""]
-    for name, size, position in (("wall_north", (0.5, 24.5, 10), (30.0, 0.0, -5.0)),
-                                 ("wall_south", (0.5, 24.5, 10), (-30.0, 0.0, -5.0)),
-                                 ("wall_east", (60.0, 0.5, 10), (0.0, 12.0, -5.0)),
-                                 ("wall_west", (60.0, 0.5, 10), (0.0, -12.0, -5.0))):
-        out.append(obj(name, box(size), "brick", position, texture_scale=3.0))
+  - {name: floor, box: [%g, %g, 0.1], material: floor, position_m: [0, 0, -0.05], texture_scale_m: 4}
+""" % (name, s["shadow_radius"], length, width)]
+    for wall, size, position in (("wall_north", (0.5, width + 0.5, height), (length / 2, 0.0, -height / 2)),
+                                 ("wall_south", (0.5, width + 0.5, height), (-length / 2, 0.0, -height / 2)),
+                                 ("wall_east", (length, 0.5, height), (0.0, width / 2, -height / 2)),
+                                 ("wall_west", (length, 0.5, height), (0.0, -width / 2, -height / 2))):
+        out.append(obj(wall, box(size), "brick", position, texture_scale=3.0))
     # platform edges: yellow-black strips along both sides
-    for y in (-7.0, 7.0):
-        out.append(obj("edge_%s" % ("w" if y < 0 else "e"), box((56.0, 0.4, 0.12)), "edge", (0.0, y, -0.06),
+    for y in (-s["edge_y"], s["edge_y"]):
+        out.append(obj("edge_%s" % ("w" if y < 0 else "e"), box((length - 4.0, 0.4, 0.12)), "edge", (0.0, y, -0.06),
                        texture_scale=0.8))
-    for k, x in enumerate(range(-24, 25, 6)):
-        for y in (-4.0, 4.0):
-            out.append(obj("pillar_%d_%s" % (k, "w" if y < 0 else "e"), "cylinder: {radius_m: 0.35, length_m: 9.9}",
-                           "concrete", (float(x), y, -4.95), texture_scale=2.0))
+    rows = "we" if len(s["pillar_y"]) == 2 else "abcd"
+    for k, x in enumerate(s["pillar_x"]):
+        for row, y in zip(rows, s["pillar_y"]):
+            out.append(obj("pillar_%d_%s" % (k, row), "cylinder: {radius_m: 0.35, length_m: %g}" % (height - 0.1),
+                           "concrete", (float(x), y, -(height - 0.1) / 2), texture_scale=2.0))
     # roof beams 2 m wide every 4 m: 2 m skylights between them
-    for k, x in enumerate(range(-29, 30, 4)):
-        out.append(obj("beam_%d" % k, box((2.0, 24.5, 0.5)), "concrete", (float(x), 0.0, -10.25), texture_scale=3.0))
-    for k, (x, y) in enumerate(((-12.0, 9.5), (-6.0, 9.5), (10.0, -9.5))):
+    for k, x in enumerate(range(-int(length / 2) + 1, int(length / 2), 4)):
+        out.append(obj("beam_%d" % k, box((2.0, width + 0.5, 0.5)), "concrete", (float(x), 0.0, -height - 0.25),
+                       texture_scale=3.0))
+    side = width / 2 - 2.5
+    for k, (x, y) in enumerate(((-12.0, side), (-6.0, side), (10.0, -side))):
         out.append(obj("stand_%d" % k, box((1.0, 1.0, 0.8)), "steel", (x, y, -0.4)))
         out.append("  - {name: parked_f450_%d, mesh: {file: ../meshes/visual/f450.obj}, position_m: [%.3f, %.3f, -0.97]}\n"
                    % (k, x, y))
     out.append("  - {name: docking_cone, mesh: {file: ../meshes/visual/docking_cone.obj}, material: steel, "
-               "position_m: [4.0, 9.5, -0.85], rpy_deg: [180, 0, 0]}\n")
-    out.append(obj("cone_stand", box((0.6, 0.6, 0.8)), "steel", (4.0, 9.5, -0.4)))
+               "position_m: [4.0, %.1f, -0.85], rpy_deg: [180, 0, 0]}\n" % side)
+    out.append(obj("cone_stand", box((0.6, 0.6, 0.8)), "steel", (4.0, side, -0.4)))
     out.append("  - {name: docking_probe, mesh: {file: ../meshes/visual/docking_cylinder.obj}, material: steel, "
-               "position_m: [5.5, 9.5, -0.86]}\n")
-    out.append(obj("probe_stand", box((0.6, 0.6, 0.8)), "steel", (5.5, 9.5, -0.4)))
-    out.append("  - {name: parked_platform, mesh: {file: ../meshes/visual/platform.obj}, position_m: [-18.0, -9.5, -0.12]}\n")
-    open(os.path.join(folder, "station_hall.yaml"), "w").write("".join(out))
+               "position_m: [5.5, %.1f, -0.86]}\n" % side)
+    out.append(obj("probe_stand", box((0.6, 0.6, 0.8)), "steel", (5.5, side, -0.4)))
+    out.append("  - {name: parked_platform, mesh: {file: ../meshes/visual/platform.obj}, "
+               "position_m: [-18.0, %.1f, -0.12]}\n" % -side)
+    open(os.path.join(folder, name + ".yaml"), "w").write("".join(out))
 
 
-def foggy_arena(folder):
-    out = [HEADER, """# A foggy arena (seed Fig. 17 (a)-3): a 30 m ring of barriers and checkered posts on grass, in fog of
+# The two arenas of seed Fig. 17 (a)-3 and (d): the same ring of barriers and posts, in fog or in the sun.
+ARENAS = {
+    "foggy_arena": """# A foggy arena (seed Fig. 17 (a)-3): a 30 m ring of barriers and checkered posts on grass, in fog of
 # 0.04 /m (a surface 30 m away keeps 30% of its colour). The sky is the fog.
 name: foggy_arena
 sky_color: [0.74, 0.76, 0.78]
@@ -142,7 +165,20 @@ ambient: {color: [0.95, 0.97, 1.0], intensity: 0.6}
 sun: {direction: [0.3, 0.2, 1.0], color: [1.0, 1.0, 1.0], intensity: 0.5, shadows: true,
       shadow_resolution: 2048, shadow_radius_m: 35}
 fog: {density_per_m: 0.04, color: [0.74, 0.76, 0.78]}
-textures:
+""",
+    "bright_arena": """# A bright arena (seed Fig. 17 (d)): the foggy arena's ring of barriers and checkered posts on grass, in clear
+# air under a high sun (hard shadows, a blue sky where the cameras look past the barriers).
+name: bright_arena
+sky_color: [0.5, 0.68, 0.95]
+ambient: {color: [0.95, 0.97, 1.0], intensity: 0.45}
+sun: {direction: [0.3, 0.2, 1.0], color: [1.0, 0.98, 0.92], intensity: 1.3, shadows: true,
+      shadow_resolution: 2048, shadow_radius_m: 35}
+""",
+}
+
+
+def arena(folder, name):
+    out = [HEADER, ARENAS[name] + """textures:
   grass: {pattern: noise, color_a: [0.36, 0.48, 0.24], color_b: [0.24, 0.33, 0.16], size_px: 512, cells: 12, seed: 41}
   barrier: {pattern: bricks, color_a: [0.85, 0.2, 0.15], color_b: [0.95, 0.95, 0.95], color_c: [0.2, 0.2, 0.2],
             size_px: 256, cells: 2, seed: 42}
@@ -165,15 +201,17 @@ objects:
         out.append(obj("post_%d" % k, "cylinder: {radius_m: 0.25, length_m: 4}", "post",
                        (r * math.cos(a), r * math.sin(a), -2.0), texture_scale=1.0))
     out.append("  - {name: wall, mesh: {file: ../meshes/visual/wall.obj}, material: barrier, position_m: [8, 0, 0]}\n")
-    open(os.path.join(folder, "foggy_arena.yaml"), "w").write("".join(out))
+    open(os.path.join(folder, name + ".yaml"), "w").write("".join(out))
 
 
 def main():
     folder = sys.argv[1] if len(sys.argv) > 1 else "configs/scenes"
     os.makedirs(folder, exist_ok=True)
     buildings(folder)
-    station_hall(folder)
-    foggy_arena(folder)
+    for name in STATIONS:
+        station(folder, name)
+    for name in ARENAS:
+        arena(folder, name)
 
 
 if __name__ == "__main__":

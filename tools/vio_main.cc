@@ -1,6 +1,6 @@
 // iapsim_vio_offline: `iapsim vio` (tools/vio_offline.h), which `iapsim vio ...` execs.
-//   iapsim vio RUN_DIR|BAG [--mode vio|vio_uwb|virpo|all] [--scenario S] [--sub BODY]... [--config F] [--set
-//   K=V]...
+//   iapsim vio RUN_DIR|BAG [--mode vio|vio_uwb|virpo|all|anchors] [--scenario S] [--sub BODY]... [--config F]
+//   [--set K=V]...
 //              [--out DIR]
 
 #include <malloc.h>
@@ -27,10 +27,11 @@ int main(int argc, char** argv) {
          "--mode", args.mode,
          "estimator: vio (the paper's VINS baseline), vio_uwb (plus ranges to the scenario's "
          "anchors) or virpo "
-         "(plus the attitude estimate and the other sub-aircraft through the platform, eq. 22), or all three "
-         "and a table like the paper's Table VIII")
+         "(plus the attitude estimate and the other sub-aircraft through the platform, eq. 22); all: the "
+         "three and a table like the paper's Table VIII; anchors: VIO, then VIO+UWB with 1, 2, ... of the "
+         "scenario's anchors and a table like Table VII")
       ->capture_default_str()
-      ->check(CLI::IsMember({"vio", "vio_uwb", "virpo", "all"}));
+      ->check(CLI::IsMember({"vio", "vio_uwb", "virpo", "all", "anchors"}));
   app.add_option("--scenario", args.scenario, "with a bag: the scenario it was recorded from")
       ->check(CLI::ExistingFile);
   app.add_option("--sub", args.sub_aircraft, "a body to estimate, e.g. iap/sub1 (repeatable; default: all)");

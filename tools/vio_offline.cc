@@ -32,6 +32,7 @@
 #include "render/camera_rig.h"
 #include "render/image.h"
 #include "sensors/imu.h"
+#include "tools/plot_script.h"
 #include "vio/config.h"
 #include "vio/estimator.h"
 #include "vio/run_setup.h"
@@ -622,30 +623,66 @@ nlohmann::json Run(const VioOfflineArgs& args) {
   return report;
 }
 
+// Runs `variants` (each a name and the arguments of one run, its output in <out_dir>/<name>) and returns the
+// ATE RMSE of each body and the centre by variant ({body: {variant: m}}), the bodies in the runs' order.
+nlohmann::json RunVariants(const std::vector<std::pair<std::string, VioOfflineArgs>>& variants,
+                           const fs::path& out_dir, std::vector<std::string>* bodies) {
+  nlohmann::json table = nlohmann::json::object();
+  for (const auto& [name, variant] : variants) {
+    VioOfflineArgs one = variant;
+    one.out_dir = (out_dir / name).string();
+    const nlohmann::json report = Run(one);
+    for (const auto& [body, entry] : report["sub_aircraft"].items()) {
+      if (!table.contains(body)) bodies->push_back(body);
+      table[body][name] = entry["ate"]["rmse_m"];
+    }
+    if (report.contains("centre")) {
+      const std::string centre = report["centre"]["body"];
+      if (!table.contains(centre)) bodies->push_back(centre);
+      table[centre][name] = report["centre"]["ate"]["rmse_m"];
+    }
+  }
+  return table;
+}
+
+fs::path SeriesFolder(const VioOfflineArgs& args, const std::string& name) {
+  const fs::path input_dir =
+      fs::is_directory(args.input) ? fs::path(args.input) : fs::path(args.input).parent_path();
+  return args.out_dir.empty() ? input_dir / name : fs::path(args.out_dir);
+}
+
+std::string Cell(double value) {
+  char cell[32];
+  std::snprintf(cell, sizeof(cell), " %.4f |", value);
+  return cell;
+}
+
+// Writes table.md and table.json, then the plots of tools/plot_vio.py `kind` (a failed plot is reported on
+// stderr; the tables stay).
+void WriteTable(const fs::path& out_dir, const std::string& md, const nlohmann::json& table,
+                const std::string& kind) {
+  std::ofstream(out_dir / "table.md") << md;
+  std::ofstream(out_dir / "table.json") << table.dump(2) << "\n";
+  std::printf("\n%s\n%s\n", md.c_str(), (out_dir / "table.md").c_str());
+  if (RunPlotScript(IAPSIM_PLOT_VIO, {kind, out_dir.string()})) {
+    std::printf("plots in %s: %s\n", out_dir.c_str(),
+                kind == "modes" ? "ate_boxplot.png, trajectories.png" : "anchors.png");
+  }
+}
+
 // `--mode all`: the three modes on the same data, each in its own folder, and a table like the seed's
 // Table VIII (ATE RMSE of each sub-aircraft and the centre by mode, and VIRPO's gain over VIO+UWB) as
 // table.md and table.json.
 void CompareModes(const VioOfflineArgs& args) {
   const std::vector<std::string> modes{"vio", "vio_uwb", "virpo"};
-  const fs::path input_dir =
-      fs::is_directory(args.input) ? fs::path(args.input) : fs::path(args.input).parent_path();
-  const fs::path out_dir = args.out_dir.empty() ? input_dir / "vio_all" : fs::path(args.out_dir);
-  nlohmann::json table = nlohmann::json::object();
-  std::vector<std::string> bodies;
+  const fs::path out_dir = SeriesFolder(args, "vio_all");
+  std::vector<std::pair<std::string, VioOfflineArgs>> variants;
   for (const std::string& mode : modes) {
-    VioOfflineArgs one = args;
-    one.mode = mode;
-    one.out_dir = (out_dir / mode).string();
-    const nlohmann::json report = Run(one);
-    for (const auto& [body, entry] : report["sub_aircraft"].items()) {
-      if (mode == modes.front()) bodies.push_back(body);
-      table[body][mode] = entry["ate"]["rmse_m"];
-    }
-    if (report.contains("centre")) {
-      if (mode == modes.front()) bodies.push_back(report["centre"]["body"]);
-      table[report["centre"]["body"].get<std::string>()][mode] = report["centre"]["ate"]["rmse_m"];
-    }
+    variants.emplace_back(mode, args);
+    variants.back().second.mode = mode;
   }
+  std::vector<std::string> bodies;
+  nlohmann::json table = RunVariants(variants, out_dir, &bodies);
   std::string md =
       "ATE RMSE (m) of `iapsim vio --mode all` on " + args.input + " (seed Table VIII's layout)\n\n|";
   std::string rule = "|";
@@ -658,11 +695,7 @@ void CompareModes(const VioOfflineArgs& args) {
   md += "\n" + rule + "\n|";
   double gain_sum = 0.0;
   for (const std::string& body : bodies) {
-    for (const std::string& mode : modes) {
-      char cell[32];
-      std::snprintf(cell, sizeof(cell), " %.4f |", table[body][mode].get<double>());
-      md += cell;
-    }
+    for (const std::string& mode : modes) md += Cell(table[body][mode].get<double>());
     const double uwb = table[body]["vio_uwb"].get<double>(), virpo = table[body]["virpo"].get<double>();
     table[body]["virpo_gain_over_vio_uwb"] = uwb > 0.0 ? 1.0 - virpo / uwb : 0.0;
     gain_sum += table[body]["virpo_gain_over_vio_uwb"].get<double>();
@@ -671,9 +704,51 @@ void CompareModes(const VioOfflineArgs& args) {
   std::snprintf(mean, sizeof(mean), "\n\nVIRPO's mean gain over VIO+UWB: %.1f %% (the seed's: 24.07 %%)\n",
                 100.0 * gain_sum / static_cast<double>(bodies.size()));
   md += mean;
-  std::ofstream(out_dir / "table.md") << md;
-  std::ofstream(out_dir / "table.json") << table.dump(2) << "\n";
-  std::printf("\n%s\n%s\n", md.c_str(), (out_dir / "table.md").c_str());
+  WriteTable(out_dir, md, table, "modes");
+}
+
+// `--mode anchors`: the seed's Table VII, VIO with 0 anchors, then VIO+UWB ranging to the scenario's first
+// 1, 2, ... anchors (in its order), each in <out>/anchors_<n>, and the ATE RMSE of each sub-aircraft by
+// anchor count as table.md and table.json (with whether it decreases as anchors are added, as in the seed).
+void CompareAnchorCounts(const VioOfflineArgs& args) {
+  VioOfflineArgs uwb = args;
+  uwb.mode = "vio_uwb";
+  const std::vector<std::string> names =
+      ReadDataset(uwb, vio::LoadVioConfig(args.config, args.overrides)).setup.anchor_names;
+  const fs::path out_dir = SeriesFolder(args, "vio_anchors");
+  std::vector<std::pair<std::string, VioOfflineArgs>> variants;
+  std::string chosen;
+  for (std::size_t n = 0; n <= names.size(); ++n) {
+    if (n > 0) chosen += (n > 1 ? "," : "") + names[n - 1];
+    variants.emplace_back("anchors_" + std::to_string(n), uwb);
+    VioOfflineArgs& variant = variants.back().second;
+    if (n == 0) variant.mode = "vio";
+    variant.overrides.push_back("uwb.anchors=[" + chosen + "]");
+  }
+  std::vector<std::string> bodies;
+  nlohmann::json table = RunVariants(variants, out_dir, &bodies);
+  std::string md = "ATE RMSE (m) by the number of UWB anchors, `iapsim vio --mode anchors` on " + args.input +
+                   " (seed Table VII's layout; anchors added in the scenario's order: " + chosen +
+                   ")\n\n| number of anchors |";
+  std::string rule = "|---|";
+  for (std::size_t n = 0; n <= names.size(); ++n) {
+    md += " " + std::to_string(n) + " |";
+    rule += "---|";
+  }
+  md += " decreasing |\n" + rule + "---|\n";
+  for (const std::string& body : bodies) {
+    md += "| " + body + " |";
+    bool decreasing = true;
+    for (std::size_t n = 0; n <= names.size(); ++n) {
+      const double rmse = table[body]["anchors_" + std::to_string(n)].get<double>();
+      md += Cell(rmse);
+      if (n > 0 && rmse > table[body]["anchors_" + std::to_string(n - 1)].get<double>()) decreasing = false;
+    }
+    table[body]["decreasing"] = decreasing;
+    md += decreasing ? " yes |\n" : " no |\n";
+  }
+  if (names.size() == 4) md += "| seed, one aircraft | 0.66 | 0.53 | 0.50 | 0.19 | 0.13 | yes |\n";
+  WriteTable(out_dir, md, table, "anchors");
 }
 
 }  // namespace
@@ -682,6 +757,8 @@ int VioOffline(const VioOfflineArgs& args) {
   try {
     if (args.mode == "all") {
       CompareModes(args);
+    } else if (args.mode == "anchors") {
+      CompareAnchorCounts(args);
     } else {
       Run(args);
     }

@@ -16,7 +16,9 @@ namespace iapsim::tools {
 struct VioOfflineArgs {
   std::string input;     ///< a run directory (run.bag, scenario.resolved.yaml) or a bag
   std::string scenario;  ///< with a bag: its scenario (default: scenario.resolved.yaml beside the bag)
-  std::string mode = "vio";  ///< vio, vio_uwb, virpo, or all (the three, and table.md/table.json)
+  /// vio, vio_uwb, virpo; all (the three, and a table like Table VIII); anchors (VIO, then VIO+UWB with 1,
+  /// 2, ... of the scenario's anchors, and a table like Table VII)
+  std::string mode = "vio";
   std::vector<std::string> sub_aircraft;  ///< bodies to estimate ("iap/sub1"); default: every stereo camera's
   std::string out_dir;                    ///< default: <input's folder>/vio_<mode>
   std::string config;                     ///< the estimator's settings (vio/config.h); empty: defaults

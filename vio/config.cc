@@ -62,6 +62,16 @@ VioConfig ReadVioConfig(bridge::YamlMap& map, VioConfig defaults) {
     uwb.OptionalInRange("sigma_m", &sigma_m, 1e-6, 1e3);
     config.range_sigma_m = sigma_m;
   }
+  if (uwb.Has("anchors")) {
+    const YAML::Node names = uwb.Raw("anchors");
+    if (!names.IsSequence()) uwb.Fail("anchors", "expected a list of anchor names, e.g. [anchor1, anchor3]");
+    config.anchors.emplace();
+    for (const YAML::Node& name : names) {
+      if (!name.IsScalar() || name.Scalar().empty()) uwb.FailAt(name, "anchors", "expected an anchor's name");
+      config.anchors->push_back(name.Scalar());
+    }
+    uwb.SetResolved("anchors", names);
+  }
   uwb.Finish();
   bridge::YamlMap virpo = map.Map("virpo");
   ReadPhysical(virpo, &config.estimator.physical);

@@ -10,7 +10,8 @@
 //               keyframe_parallax_px_at_460, keyframe_min_tracked}
 //   estimator: {window_keyframes, pixel_sigma_px, robust_loss_sigmas, max_iterations, min_depth_m,
 //               max_depth_m, outlier_px, range_huber_sigmas, min_features}
-//   uwb:       {sigma_m}      range sigma (default: the sensor's own, from the scenario)
+//   uwb:       {sigma_m,      range sigma (default: the sensor's own, from the scenario)
+//               anchors}      the names of the anchors to range to (default: all of the scenario's)
 //   virpo:     {sigma_link_m, sigma_rate_radps, sigma_attitude_rad, drift_prior_position_m,
 //               drift_prior_yaw_rad, drift_step_position_m, drift_step_yaw_rad, huber_sigmas,
 //               max_peer_extrapolation_s}
@@ -29,6 +30,7 @@ struct VioConfig {
   TrackerOptions tracker;
   EstimatorOptions estimator;  ///< imu_noise, p_IT_m and the physical geometry are the run's, set later
   std::optional<double> range_sigma_m;
+  std::optional<std::vector<std::string>> anchors;  ///< a subset of the scenario's, by name
 };
 
 /// Reads the keys above from `map` over `defaults` (each checked; the caller finishes the map, so that

@@ -23,6 +23,7 @@ TEST(VioConfigTest, NoFileGivesTheDefaultsOfTableIX) {
   EXPECT_EQ(config.estimator.window_keyframes, EstimatorOptions{}.window_keyframes);
   EXPECT_EQ(config.tracker.max_features, TrackerOptions{}.max_features);
   EXPECT_FALSE(config.range_sigma_m.has_value());
+  EXPECT_FALSE(config.anchors.has_value());  // every anchor of the scenario
   const PhysicalConstraintOptions& p = config.estimator.physical;
   EXPECT_DOUBLE_EQ(p.sigma_link_m, 0.04);
   EXPECT_DOUBLE_EQ(p.sigma_rate_radps, 0.1);
@@ -37,12 +38,15 @@ TEST(VioConfigTest, AFileAndOverridesSetTheirKeys) {
   const std::string path = ::testing::TempDir() + "vio_config_test.yaml";
   std::ofstream(path) << "tracker: {max_features: 200}\nestimator:\n  window_keyframes: 8\nvirpo:\n"
                          "  sigma_attitude_rad: 0.04\n";
-  const VioConfig config = LoadVioConfig(path, {"uwb.sigma_m=0.1", "virpo.sigma_attitude_rad=0.03"});
+  const VioConfig config = LoadVioConfig(
+      path, {"uwb.sigma_m=0.1", "virpo.sigma_attitude_rad=0.03", "uwb.anchors=[anchor1, anchor3]"});
   EXPECT_EQ(config.tracker.max_features, 200);
   EXPECT_EQ(config.estimator.window_keyframes, 8);
   EXPECT_DOUBLE_EQ(config.estimator.physical.sigma_attitude_rad, 0.03);  // the override wins
   ASSERT_TRUE(config.range_sigma_m.has_value());
   EXPECT_DOUBLE_EQ(*config.range_sigma_m, 0.1);
+  EXPECT_EQ(config.anchors, (std::vector<std::string>{"anchor1", "anchor3"}));
+  EXPECT_EQ(LoadVioConfig("", {"uwb.anchors=[]"}).anchors, std::vector<std::string>{});  // VIO's 0 anchors
   std::remove(path.c_str());
 }
 
@@ -56,6 +60,10 @@ TEST(VioConfigTest, BadKeysAndValuesAreClearErrors) {
   EXPECT_NE(not_a_number.find("estimator.window_keyframes"), std::string::npos) << not_a_number;
   const std::string nan = ErrorOf("", {"virpo.sigma_attitude_rad=.nan"});
   EXPECT_NE(nan.find("virpo.sigma_attitude_rad"), std::string::npos) << nan;
+  const std::string not_a_list = ErrorOf("", {"uwb.anchors=anchor1"});
+  EXPECT_NE(not_a_list.find("uwb.anchors: expected a list of anchor names"), std::string::npos) << not_a_list;
+  const std::string nested = ErrorOf("", {"uwb.anchors=[[anchor1]]"});
+  EXPECT_NE(nested.find("uwb.anchors: expected an anchor's name"), std::string::npos) << nested;
   const std::string missing = ErrorOf("/nonexistent/vio.yaml", {});
   EXPECT_NE(missing.find("/nonexistent/vio.yaml"), std::string::npos) << missing;
 }

@@ -1,5 +1,6 @@
 #include "vio/run_setup.h"
 
+#include <algorithm>
 #include <set>
 
 #include "bridge/eigen_msgs.h"
@@ -45,6 +46,24 @@ RunSetup ReadRunSetup(const bridge::Scenario& scenario, const std::string& mode,
   X_BI.linear() = sensors_config.imu.q_BI.toRotationMatrix();
   X_BI.translation() = sensors_config.imu.p_BI_m;
 
+  // The anchors ranged to: the scenario's, or those of uwb.anchors (Table VII's sweep over 0-4 anchors)
+  std::map<std::string, Eigen::Vector3d> anchors_W;
+  for (const sensors::UwbAnchor& anchor : sensors_config.uwb.anchors) {
+    setup.anchor_names.push_back(anchor.name);
+    if (!config.anchors) anchors_W[anchor.name] = anchor.p_WA_m;
+  }
+  for (const std::string& name : config.anchors.value_or(std::vector<std::string>{})) {
+    const auto anchor = std::find_if(sensors_config.uwb.anchors.begin(), sensors_config.uwb.anchors.end(),
+                                     [&](const sensors::UwbAnchor& a) { return a.name == name; });
+    if (anchor == sensors_config.uwb.anchors.end()) {
+      std::string known;
+      for (const std::string& n : setup.anchor_names) known += (known.empty() ? "" : ", ") + n;
+      throw bridge::ConfigError("uwb.anchors: no anchor '" + name + "' in " + scenario.file + " (processes." +
+                                sensors_process + ".params.uwb has: " + (known.empty() ? "none" : known) +
+                                ")");
+    }
+    anchors_W[name] = anchor->p_WA_m;
+  }
   const std::set<std::string> wanted(bodies.begin(), bodies.end());
   std::set<std::string> not_found = wanted;
   for (const render::CameraConfig& camera : cameras) {
@@ -69,8 +88,7 @@ RunSetup ReadRunSetup(const bridge::Scenario& scenario, const std::string& mode,
              ".params.uwb.anchors or anchors_file)");
       }
       sub.uwb_topic = "/" + camera.mount.body + "/uwb";
-      for (const sensors::UwbAnchor& anchor : sensors_config.uwb.anchors)
-        sub.anchors_W[anchor.name] = anchor.p_WA_m;
+      sub.anchors_W = anchors_W;
       sub.range_sigma_m = config.range_sigma_m.value_or(sensors_config.uwb.noise.sigma_m);
     }
     if (mode == "virpo") sub.attitude_topic = "/" + camera.mount.body + "/attitude";

@@ -43,6 +43,7 @@ struct SubAircraftSetup {
 struct RunSetup {
   std::string vehicle_name;
   std::vector<SubAircraftSetup> subs;
+  std::vector<std::string> anchor_names;  ///< all of the scenario's UWB anchors, in its order
   /// The joints d_i in the order of `subs` and the platform's ground truth, when every sub-aircraft of the
   /// vehicle is estimated (the centre comes from all of them).
   std::vector<Eigen::Vector3d> joints_P;

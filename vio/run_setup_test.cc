@@ -74,5 +74,31 @@ TEST(RunSetupTest, SharedOdometryRoundTrips) {
   EXPECT_LT((joint.v_WJ_W_mps - origin.v_WJ_W_mps).norm(), 1e-12);
 }
 
+// The manual flight (b) is three_star_stereo.yaml with Table XI's anchors; uwb.anchors picks some of them by
+// name (the anchor sweep of Table VII), and a name the scenario lacks is an error that lists what it has.
+TEST(RunSetupTest, TheAnchorsAreTheScenariosOrThoseNamed) {
+  const bridge::Scenario scenario = bridge::LoadScenario(std::string(IAPSIM_SOURCE_DIR) +
+                                                         "/configs/scenarios/three_star_pilot_station.yaml");
+  const RunSetup all = ReadRunSetup(scenario, "vio_uwb", LoadVioConfig("", {}), {});
+  ASSERT_EQ(all.subs.size(), 3u);
+  EXPECT_EQ(all.anchor_names, (std::vector<std::string>{"anchor1", "anchor2", "anchor3", "anchor4"}));
+  ASSERT_EQ(all.subs[0].anchors_W.size(), 4u);
+  EXPECT_EQ(all.subs[0].anchors_W.at("anchor3"), Eigen::Vector3d(38.76, 46.12, -1.59));  // seed Table XI
+  const RunSetup two =
+      ReadRunSetup(scenario, "vio_uwb", LoadVioConfig("", {"uwb.anchors=[anchor4,anchor2]"}), {"iap/sub2"});
+  ASSERT_EQ(two.subs.size(), 1u);
+  EXPECT_EQ(two.subs[0].anchors_W.size(), 2u);
+  EXPECT_EQ(two.subs[0].anchors_W.count("anchor4"), 1u);
+  EXPECT_EQ(two.subs[0].anchors_W.count("anchor1"), 0u);
+  try {
+    ReadRunSetup(scenario, "vio_uwb", LoadVioConfig("", {"uwb.anchors=[anchor5]"}), {});
+    ADD_FAILURE() << "an unknown anchor was accepted";
+  } catch (const bridge::ConfigError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("uwb.anchors: no anchor 'anchor5'"), std::string::npos) << what;
+    EXPECT_NE(what.find("anchor1, anchor2, anchor3, anchor4"), std::string::npos) << what;
+  }
+}
+
 }  // namespace
 }  // namespace iapsim::vio
