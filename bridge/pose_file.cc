@@ -192,4 +192,12 @@ std::vector<TimedPose> ReadPoseFile(const std::string& path, const std::string& 
   throw std::invalid_argument("pose file format '" + format + "': expected tum or csv");
 }
 
+void WriteTumFile(const std::string& path, const std::vector<StampedPose>& poses,
+                  const std::string& comment) {
+  std::ofstream file(path);
+  file << "# " << comment << "\n";
+  for (const StampedPose& p : poses) file << FormatTum(p) << "\n";
+  if (!file) throw std::runtime_error(path + ": cannot write");
+}
+
 }  // namespace iapsim::bridge

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "bridge/message_format.h"
+
 namespace iapsim::bridge {
 
 struct TimedPose {
@@ -21,5 +23,9 @@ struct TimedPose {
 /// 1e-3 (recorders print a few digits) and come back normalised. Throws ConfigError naming the file, the
 /// line and the column on anything else, and for a file without a pose.
 std::vector<TimedPose> ReadPoseFile(const std::string& path, const std::string& format);
+
+/// Writes `poses` as a TUM file after a "# `comment`" line. Throws std::runtime_error naming the file when it
+/// cannot.
+void WriteTumFile(const std::string& path, const std::vector<StampedPose>& poses, const std::string& comment);
 
 }  // namespace iapsim::bridge

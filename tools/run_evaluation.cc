@@ -13,6 +13,7 @@ RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario) {
   bridge::YamlMap evaluation(scenario.evaluation, scenario.file, "evaluation");
   out.tracking = ReadTrackingEvaluation(evaluation);
   out.contact = ReadContactEvaluation(evaluation);
+  out.odometry = ReadOdometryEvaluation(evaluation);
   if (evaluation.Has("videos")) {
     const YAML::Node videos = evaluation.Raw("videos");
     if (!videos.IsSequence())
@@ -33,7 +34,7 @@ nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& eval
   const std::string bag_path = run_dir + "/run.bag";
   // opened once for every analysis: reading a bag's index is most of what reading a few topics costs
   std::optional<bridge::BagReader> bag;
-  if (evaluation.tracking || evaluation.contact) bag.emplace(bag_path);
+  if (evaluation.tracking || evaluation.contact || !evaluation.odometry.empty()) bag.emplace(bag_path);
   if (evaluation.tracking) {
     out["tracking"] = EvaluateTracking(run_dir, *bag, *evaluation.tracking);
     if (print) PrintTracking(out["tracking"]);
@@ -41,6 +42,10 @@ nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& eval
   if (evaluation.contact) {
     out["contact"] = EvaluateContact(run_dir, *bag, *evaluation.contact);
     if (print) PrintContact(out["contact"]);
+  }
+  if (!evaluation.odometry.empty()) {
+    out["odometry"] = EvaluateOdometry(run_dir, *bag, evaluation.odometry);
+    if (print) PrintOdometry(out["odometry"]);
   }
   for (const std::string& camera : evaluation.videos) {
     const CameraVideo video = WriteCameraVideo(bag_path, camera, DefaultVideoPath(bag_path, camera));

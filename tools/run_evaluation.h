@@ -1,6 +1,7 @@
 #pragma once
 // The after-run analyses a scenario asks for in its `evaluation` section: tracking (flight_evaluation.h),
-// contact (contact_evaluation.h) and videos of cameras (video.h). `iapsim run`, `iapsim evaluate` and `iapsim regress` all go through here.
+// contact (contact_evaluation.h), estimates against the truth (odometry_evaluation.h) and videos of cameras
+// (video.h). `iapsim run`, `iapsim evaluate` and `iapsim regress` all go through here.
 
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -10,22 +11,24 @@
 #include "bridge/scenario.h"
 #include "tools/contact_evaluation.h"
 #include "tools/flight_evaluation.h"
+#include "tools/odometry_evaluation.h"
 
 namespace iapsim::tools {
 
 struct RunEvaluation {
   std::optional<TrackingEvaluation> tracking;
   std::optional<ContactEvaluation> contact;
+  std::vector<OdometryPair> odometry;
   std::vector<std::string> videos;  // camera eyes: an MP4 and a contact sheet of each in the run directory
-  bool empty() const { return !tracking && !contact && videos.empty(); }
+  bool empty() const { return !tracking && !contact && odometry.empty() && videos.empty(); }
 };
 
 /// Reads the scenario's `evaluation` section (unknown keys are errors). Throws bridge::ConfigError.
 RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario);
 
 /// Runs each analysis on run_dir, prints its table (unless `print` is false) and returns {tracking: ...,
-/// contact: ..., videos: ...} (tracking and contact are also written into run_dir/metrics.json). Throws
-/// std::runtime_error naming a file that is missing data.
+/// contact: ..., odometry: ..., videos: ...} (all but the videos are also written into run_dir/metrics.json).
+/// Throws std::runtime_error naming a file that is missing data.
 nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& evaluation, bool print = true);
 
 }  // namespace iapsim::tools

@@ -28,7 +28,9 @@
 #include "bridge/eigen_msgs.h"
 #include "bridge/message.h"
 #include "bridge/message_format.h"
+#include "bridge/pose_file.h"
 #include "bridge/scenario.h"
+#include "bridge/trajectory_error.h"
 #include "render/camera_rig.h"
 #include "render/image.h"
 #include "sensors/imu.h"
@@ -37,7 +39,6 @@
 #include "vio/estimator.h"
 #include "vio/run_setup.h"
 #include "vio/stereo_tracker.h"
-#include "vio/trajectory_error.h"
 
 namespace iapsim::tools {
 namespace {
@@ -166,49 +167,6 @@ bridge::StampedPose Stamped(int64_t t_ns, const geometry_msgs::Pose& pose) {
   std::copy(values, values + 3, stamped.position);
   std::copy(values + 3, values + 7, stamped.orientation_xyzw);
   return stamped;
-}
-
-std::vector<vio::StampedPosition> Positions(const std::vector<bridge::StampedPose>& poses) {
-  std::vector<vio::StampedPosition> positions;
-  for (const bridge::StampedPose& p : poses)
-    positions.push_back({p.time_ns, {p.position[0], p.position[1], p.position[2]}});
-  return positions;
-}
-
-std::vector<vio::StampedIsometry> Isometries(const std::vector<bridge::StampedPose>& poses) {
-  std::vector<vio::StampedIsometry> out;
-  for (const bridge::StampedPose& p : poses) {
-    vio::StampedIsometry s;
-    s.t_ns = p.time_ns;
-    s.X.linear() = Eigen::Quaterniond(p.orientation_xyzw[3], p.orientation_xyzw[0], p.orientation_xyzw[1],
-                                      p.orientation_xyzw[2])
-                       .normalized()
-                       .toRotationMatrix();
-    s.X.translation() = Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
-    out.push_back(s);
-  }
-  return out;
-}
-
-// The errors every trajectory gets in vio.json: ATE as it is and aligned, and RPE over one second.
-constexpr int64_t kRpeDelta_ns = 1'000'000'000;
-
-nlohmann::json ErrorsJson(const std::vector<bridge::StampedPose>& estimate,
-                          const std::vector<bridge::StampedPose>& truth, vio::AbsoluteTrajectoryError* ate,
-                          vio::AbsoluteTrajectoryError* ate_aligned) {
-  *ate = vio::ComputeAte(Positions(estimate), Positions(truth), false);
-  *ate_aligned = vio::ComputeAte(Positions(estimate), Positions(truth), true);
-  const vio::RelativePoseError rpe = vio::ComputeRpe(Isometries(estimate), Isometries(truth), kRpeDelta_ns);
-  const auto ate_json = [](const vio::AbsoluteTrajectoryError& e) {
-    return nlohmann::json{
-        {"rmse_m", e.rmse_m}, {"mean_m", e.mean_m}, {"max_m", e.max_m}, {"matched", e.matched}};
-  };
-  return {{"ate", ate_json(*ate)},
-          {"ate_aligned", ate_json(*ate_aligned)},
-          {"rpe_1s",
-           {{"translation_rmse_m", rpe.translation_rmse_m},
-            {"rotation_rmse_deg", rpe.rotation_rmse_deg},
-            {"pairs", rpe.pairs}}}};
 }
 
 // Ground truth by topic and stamp: each sub-aircraft's (its first state starts the estimate) and the
@@ -537,24 +495,19 @@ CentreResult EstimateCentre(const DatasetInput& in, const std::vector<SubAircraf
   return out;
 }
 
-void WriteTum(const std::string& path, const std::vector<bridge::StampedPose>& poses) {
-  std::ofstream file(path);
-  file << "# t x y z qx qy qz qw (W NED, body FRD; iapsim vio)\n";
-  for (const bridge::StampedPose& p : poses) file << bridge::FormatTum(p) << "\n";
-  if (!file) throw std::runtime_error(path + ": cannot write");
-}
-
 // Writes <out_dir>/<body with _>_estimate.tum and _truth.tum and returns the body's entry of vio.json: the
 // file names and its errors (ATE as it is and aligned, RPE over 1 s), whose ATEs it also hands back.
 nlohmann::json WriteTrajectory(const std::string& out_dir, const std::string& body,
                                const std::vector<bridge::StampedPose>& estimate,
                                const std::vector<bridge::StampedPose>& truth,
-                               vio::AbsoluteTrajectoryError* ate, vio::AbsoluteTrajectoryError* ate_aligned) {
+                               bridge::AbsoluteTrajectoryError* ate,
+                               bridge::AbsoluteTrajectoryError* ate_aligned) {
   std::string stem = body;
   for (char& c : stem) c = c == '/' ? '_' : c;
-  WriteTum((fs::path(out_dir) / (stem + "_estimate.tum")).string(), estimate);
-  WriteTum((fs::path(out_dir) / (stem + "_truth.tum")).string(), truth);
-  nlohmann::json entry = ErrorsJson(estimate, truth, ate, ate_aligned);
+  const std::string comment = "t x y z qx qy qz qw (W NED, body FRD; iapsim vio)";
+  bridge::WriteTumFile((fs::path(out_dir) / (stem + "_estimate.tum")).string(), estimate, comment);
+  bridge::WriteTumFile((fs::path(out_dir) / (stem + "_truth.tum")).string(), truth, comment);
+  nlohmann::json entry = bridge::TrajectoryErrors(estimate, truth, ate, ate_aligned);
   entry["estimate_tum"] = stem + "_estimate.tum";
   entry["truth_tum"] = stem + "_truth.tum";
   return entry;
@@ -584,7 +537,7 @@ nlohmann::json Run(const VioOfflineArgs& args) {
     const vio::SubAircraftSetup& sub = in.setup.subs[i];
     const SubAircraftResult& r = results[i];
     const double per_frame = r.frames > 0 ? 1.0 / r.frames : 0.0;
-    vio::AbsoluteTrajectoryError ate, ate_aligned;
+    bridge::AbsoluteTrajectoryError ate, ate_aligned;
     nlohmann::json& entry = report["sub_aircraft"][sub.body];
     entry = WriteTrajectory(out_dir, sub.body, r.estimate, r.truth, &ate, &ate_aligned);
     entry["frames"] = r.frames;
@@ -608,7 +561,7 @@ nlohmann::json Run(const VioOfflineArgs& args) {
     const std::string centre =
         in.setup.platform_truth_topic.substr(1, in.setup.platform_truth_topic.rfind('/') - 1) + "/platform";
     const CentreResult c = EstimateCentre(in, results, truth);
-    vio::AbsoluteTrajectoryError ate, ate_aligned;
+    bridge::AbsoluteTrajectoryError ate, ate_aligned;
     report["centre"] = WriteTrajectory(out_dir, centre, c.estimate, c.truth, &ate, &ate_aligned);
     report["centre"]["body"] = centre;
     std::printf("  %-12s %7zu %9s %8s %12.4f %12.4f   (from the sub-aircraft and the joints)\n",

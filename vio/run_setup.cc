@@ -4,10 +4,10 @@
 #include <set>
 
 #include "bridge/eigen_msgs.h"
+#include "bridge/trajectory_error.h"
 #include "model/vehicle.h"
 #include "sensors/sensor_config.h"
 #include "vio/so3.h"
-#include "vio/trajectory_error.h"
 
 namespace iapsim::vio {
 namespace {
@@ -151,7 +151,7 @@ nav_msgs::Odometry PlatformOdometryOf(const std::vector<Eigen::Vector3d>& joints
                                       const std::string& vehicle) {
   std::vector<Eigen::Vector3d> joints_W;
   for (const nav_msgs::Odometry& sub : subs) joints_W.push_back(PeerJointOf(sub).p_WJ_m);
-  const Eigen::Isometry3d X_WP = UmeyamaRigid(joints_P, joints_W);
+  const Eigen::Isometry3d X_WP = bridge::UmeyamaRigid(joints_P, joints_W);
   // [I  −[r_i]×] [v_P; ω] = v_i for every joint, r_i = R_WP d_i
   Eigen::MatrixXd A(3 * subs.size(), 6);
   Eigen::VectorXd b(3 * subs.size());

@@ -115,6 +115,20 @@ done
 "$iapsim" export "$work/run/run.bag" --topic /iap/vio/odom --format tum -o "$work/bus_platform.tum" 2> /dev/null
 cmp -s <(grep -v '^#' "$work/bus_platform.tum") <(grep -v '^#' "$work/simulated/iap_platform_estimate.tum") ||
   fail "the platform's vio process published another centre than iapsim vio computes"
+# the run's own evaluation of the live estimates (evaluation.odometry) is the offline runner's, to the digit
+/usr/bin/python3 - "$work/run/metrics.json" "$work/simulated/vio.json" << 'PY' || fail "evaluation.odometry"
+import json, sys
+odometry, offline = json.load(open(sys.argv[1]))["odometry"], json.load(open(sys.argv[2]))
+for sub in ("sub1", "sub2", "sub3"):
+    live, off = odometry["/iap/%s/vio/odom" % sub], offline["sub_aircraft"]["iap/" + sub]
+    assert live["truth"] == "/iap/%s/odom" % sub and live["estimate_tum"] == "iap_%s_vio_odom.tum" % sub, live
+    assert live["ate"] == off["ate"] and live["rpe_1s"]["pairs"] == off["rpe_1s"]["pairs"], (sub, live, off)
+    for key in ("translation_rmse_m", "rotation_rmse_deg"):  # the truth's rotation there went through a matrix
+        assert abs(live["rpe_1s"][key] - off["rpe_1s"][key]) < 1e-9, (sub, key, live, off)
+assert odometry["/iap/vio/odom"]["ate"] == offline["centre"]["ate"], (odometry["/iap/vio/odom"], offline["centre"])
+PY
+cmp -s <(grep -v '^#' "$work/run/iap_vio_odom.tum") <(grep -v '^#' "$work/simulated/iap_platform_estimate.tum") ||
+  fail "evaluation.odometry's TUM file of /iap/vio/odom is not the estimate"
 /usr/bin/python3 - "$work/run/metrics.json" << 'PY' || fail "vio processes: $(cat "$work/run/metrics.json")"
 import json, sys
 processes = json.load(open(sys.argv[1]))["processes"]
@@ -164,6 +178,11 @@ expect_exit 2 "no stereo camera on 'iap/sub9'" "$iapsim" vio "$work/run" --sub i
 expect_exit 2 "sub: 'sub9' has no stereo camera in this scenario" \
   "$bin/iapsim_vio" --scenario "$src/configs/scenarios/three_star_vio.yaml" --node vio_sub1 --check \
   --set processes.vio_sub1.params.sub=sub9
+expect_exit 2 "evaluation.odometry[0].truth: is required" "$iapsim" run "$src/configs/scenarios/three_star_vio.yaml" \
+  --check --out "$work/bad_odometry" --set 'evaluation.odometry=[{estimate: /iap/sub1/vio/odom}]'
+expect_exit 2 "evaluation.odometry[0].estimate: expected a topic name starting with /" \
+  "$iapsim" run "$src/configs/scenarios/three_star_vio.yaml" --check --out "$work/bad_odometry" \
+  --set 'evaluation.odometry=[{estimate: iap/sub1/vio/odom, truth: /iap/sub1/odom}]'
 expect_exit 2 "--mode: slam not in {vio,vio_uwb,virpo,all,anchors}" "$iapsim" vio "$work/run" --mode slam
 expect_exit 2 "uwb.anchors: no anchor 'anchor9' in $work/run/scenario.resolved.yaml" \
   "$iapsim" vio "$work/run" --mode vio_uwb --set 'uwb.anchors=[anchor1,anchor9]' 

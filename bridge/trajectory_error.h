@@ -11,9 +11,12 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <vector>
 
-namespace iapsim::vio {
+#include "bridge/message_format.h"
+
+namespace iapsim::bridge {
 
 struct StampedPosition {
   std::int64_t t_ns = 0;
@@ -55,4 +58,12 @@ AbsoluteTrajectoryError ComputeAte(const std::vector<StampedPosition>& estimate,
 RelativePoseError ComputeRpe(const std::vector<StampedIsometry>& estimate,
                              const std::vector<StampedIsometry>& truth, std::int64_t delta_ns);
 
-}  // namespace iapsim::vio
+/// The errors `iapsim vio` and a run's `evaluation.odometry` report of an estimate against the truth (poses
+/// of the same body, each sorted by time, stamps matched exactly): {ate, ate_aligned: {rmse_m, mean_m,
+/// max_m, matched}, rpe_1s: {translation_rmse_m, rotation_rmse_deg, pairs}}; the two ATEs also through the
+/// pointers when given.
+nlohmann::json TrajectoryErrors(const std::vector<StampedPose>& estimate,
+                                const std::vector<StampedPose>& truth, AbsoluteTrajectoryError* ate = nullptr,
+                                AbsoluteTrajectoryError* ate_aligned = nullptr);
+
+}  // namespace iapsim::bridge

@@ -1,10 +1,10 @@
-#include "vio/trajectory_error.h"
+#include "bridge/trajectory_error.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-namespace iapsim::vio {
+namespace iapsim::bridge {
 namespace {
 
 // By hand: the estimate is the truth with errors (+3, 0, 0) cm, (0, −4, 0) cm and none at three stamps; a
@@ -63,4 +63,4 @@ TEST(TrajectoryErrorTest, RpeOnAHandComputablePair) {
 }
 
 }  // namespace
-}  // namespace iapsim::vio
+}  // namespace iapsim::bridge

@@ -1,11 +1,11 @@
-#include "vio/trajectory_error.h"
+#include "bridge/trajectory_error.h"
 
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <map>
 
-namespace iapsim::vio {
+namespace iapsim::bridge {
 
 Eigen::Isometry3d UmeyamaRigid(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -90,4 +90,51 @@ RelativePoseError ComputeRpe(const std::vector<StampedIsometry>& estimate,
   return out;
 }
 
-}  // namespace iapsim::vio
+namespace {
+
+std::vector<StampedPosition> Positions(const std::vector<StampedPose>& poses) {
+  std::vector<StampedPosition> positions;
+  for (const StampedPose& p : poses)
+    positions.push_back({p.time_ns, {p.position[0], p.position[1], p.position[2]}});
+  return positions;
+}
+
+std::vector<StampedIsometry> Isometries(const std::vector<StampedPose>& poses) {
+  std::vector<StampedIsometry> out;
+  for (const StampedPose& p : poses) {
+    StampedIsometry s;
+    s.t_ns = p.time_ns;
+    s.X.linear() = Eigen::Quaterniond(p.orientation_xyzw[3], p.orientation_xyzw[0], p.orientation_xyzw[1],
+                                      p.orientation_xyzw[2])
+                       .normalized()
+                       .toRotationMatrix();
+    s.X.translation() = Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
+    out.push_back(s);
+  }
+  return out;
+}
+
+nlohmann::json AteJson(const AbsoluteTrajectoryError& e) {
+  return {{"rmse_m", e.rmse_m}, {"mean_m", e.mean_m}, {"max_m", e.max_m}, {"matched", e.matched}};
+}
+
+}  // namespace
+
+nlohmann::json TrajectoryErrors(const std::vector<StampedPose>& estimate,
+                                const std::vector<StampedPose>& truth, AbsoluteTrajectoryError* ate,
+                                AbsoluteTrajectoryError* ate_aligned) {
+  constexpr std::int64_t kRpeDelta_ns = 1'000'000'000;  // the drift per second
+  const AbsoluteTrajectoryError as_is = ComputeAte(Positions(estimate), Positions(truth), false);
+  const AbsoluteTrajectoryError aligned = ComputeAte(Positions(estimate), Positions(truth), true);
+  const RelativePoseError rpe = ComputeRpe(Isometries(estimate), Isometries(truth), kRpeDelta_ns);
+  if (ate) *ate = as_is;
+  if (ate_aligned) *ate_aligned = aligned;
+  return {{"ate", AteJson(as_is)},
+          {"ate_aligned", AteJson(aligned)},
+          {"rpe_1s",
+           {{"translation_rmse_m", rpe.translation_rmse_m},
+            {"rotation_rmse_deg", rpe.rotation_rmse_deg},
+            {"pairs", rpe.pairs}}}};
+}
+
+}  // namespace iapsim::bridge
