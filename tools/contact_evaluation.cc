@@ -21,6 +21,7 @@
 #include "model/vehicle.h"
 #include "tools/flight_evaluation.h"
 #include "tools/plot_script.h"
+#include "tools/run_evaluation.h"
 
 namespace iapsim::tools {
 namespace {
@@ -273,13 +274,7 @@ nlohmann::json EvaluateContact(const std::string& run_dir, const bridge::BagRead
     contact["plots"] = peg ? nlohmann::json{run_dir + "/contact_wrench.png", run_dir + "/peg_in_hole.png"}
                            : nlohmann::json{run_dir + "/contact_wrench.png", run_dir + "/wall_push.png"};
   }
-  const std::string metrics_path = run_dir + "/metrics.json";
-  std::ifstream metrics_in(metrics_path);
-  nlohmann::json metrics = nlohmann::json::parse(metrics_in, nullptr, false);
-  metrics_in.close();
-  if (!metrics.is_object()) throw std::runtime_error(metrics_path + ": missing or not JSON");
-  metrics["contact"] = contact;
-  std::ofstream(metrics_path) << metrics.dump(2) << "\n";
+  SetRunMetric(run_dir, "contact", contact);
   return contact;
 }
 

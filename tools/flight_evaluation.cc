@@ -17,6 +17,7 @@
 #include "bridge/eigen_msgs.h"
 #include "bridge/message.h"
 #include "tools/plot_script.h"
+#include "tools/run_evaluation.h"
 
 namespace iapsim::tools {
 namespace {
@@ -159,10 +160,7 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const bridge::BagRea
 
   // the controller's own count of allocations cut to the thrust limits, from the run's metrics
   const std::string metrics_path = run_dir + "/metrics.json";
-  std::ifstream metrics_in(metrics_path);
-  nlohmann::json metrics = nlohmann::json::parse(metrics_in, nullptr, false);
-  metrics_in.close();
-  if (!metrics.is_object()) throw std::runtime_error(metrics_path + ": missing or not JSON");
+  nlohmann::json metrics = ReadRunMetrics(run_dir);
   const auto& controller = metrics["processes"][evaluation.controller]["process"];
   if (!controller.contains("saturated_updates")) {
     throw std::runtime_error(metrics_path + ": process '" + evaluation.controller +
@@ -175,8 +173,7 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const bridge::BagRea
   if (evaluation.plots && RunPlotScript(IAPSIM_PLOT_TRACKING, {csv_path, run_dir, evaluation.vehicle})) {
     tracking["plots"] = {run_dir + "/tracking_pose.png", run_dir + "/tracking_error.png"};
   }
-  metrics["tracking"] = tracking;
-  std::ofstream(metrics_path) << metrics.dump(2) << "\n";
+  SetRunMetric(run_dir, "tracking", tracking);
   return tracking;
 }
 

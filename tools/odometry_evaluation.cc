@@ -1,7 +1,6 @@
 #include "tools/odometry_evaluation.h"
 
 #include <cstdio>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -10,6 +9,7 @@
 #include "bridge/message_schema.h"
 #include "bridge/pose_file.h"
 #include "bridge/trajectory_error.h"
+#include "tools/run_evaluation.h"
 
 namespace iapsim::tools {
 namespace {
@@ -94,17 +94,11 @@ nlohmann::json EvaluateOdometry(const std::string& run_dir, const bridge::BagRea
     entry["truth_tum"] = truth_tum;
     out[pair.estimate_topic] = entry;
   }
-  const std::string metrics_path = run_dir + "/metrics.json";
-  std::ifstream metrics_in(metrics_path);
-  nlohmann::json metrics = nlohmann::json::parse(metrics_in, nullptr, false);
-  metrics_in.close();
-  if (!metrics.is_object()) throw std::runtime_error(metrics_path + ": missing or not JSON");
-  metrics["odometry"] = out;
-  std::ofstream(metrics_path) << metrics.dump(2) << "\n";
+  SetRunMetric(run_dir, "odometry", out);
   return out;
 }
 
-void PrintOdometry(const nlohmann::json& odometry) {
+void PrintEstimateErrors(const nlohmann::json& odometry) {
   std::printf("  estimates against the truth (ATE RMSE as it is / rigidly aligned, RPE over 1 s):\n");
   for (const auto& [topic, entry] : odometry.items()) {
     std::printf("    %-24s %8.4f / %8.4f m  RPE %7.4f m %6.3f deg  (%zu stamps)\n", topic.c_str(),

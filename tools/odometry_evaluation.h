@@ -34,6 +34,6 @@ nlohmann::json EvaluateOdometry(const std::string& run_dir, const bridge::BagRea
                                 const std::vector<OdometryPair>& pairs);
 
 /// Prints one row per pair.
-void PrintOdometry(const nlohmann::json& odometry);
+void PrintEstimateErrors(const nlohmann::json& odometry);
 
 }  // namespace iapsim::tools

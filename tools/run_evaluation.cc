@@ -1,11 +1,30 @@
 #include "tools/run_evaluation.h"
 
+#include <fstream>
 #include <optional>
+#include <stdexcept>
 
 #include "bridge/bag.h"
 #include "tools/video.h"
 
 namespace iapsim::tools {
+
+nlohmann::json ReadRunMetrics(const std::string& run_dir) {
+  const std::string path = run_dir + "/metrics.json";
+  std::ifstream in(path);
+  nlohmann::json metrics = nlohmann::json::parse(in, nullptr, false);
+  if (!metrics.is_object()) throw std::runtime_error(path + ": missing or not JSON");
+  return metrics;
+}
+
+void SetRunMetric(const std::string& run_dir, const std::string& key, const nlohmann::json& value) {
+  nlohmann::json metrics = ReadRunMetrics(run_dir);
+  metrics[key] = value;
+  const std::string path = run_dir + "/metrics.json";
+  std::ofstream out(path);
+  out << metrics.dump(2) << "\n";
+  if (!out) throw std::runtime_error(path + ": cannot write");
+}
 
 RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario) {
   RunEvaluation out;
@@ -45,7 +64,7 @@ nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& eval
   }
   if (!evaluation.odometry.empty()) {
     out["odometry"] = EvaluateOdometry(run_dir, *bag, evaluation.odometry);
-    if (print) PrintOdometry(out["odometry"]);
+    if (print) PrintEstimateErrors(out["odometry"]);
   }
   for (const std::string& camera : evaluation.videos) {
     const CameraVideo video = WriteCameraVideo(bag_path, camera, DefaultVideoPath(bag_path, camera));

@@ -23,6 +23,12 @@ struct RunEvaluation {
   bool empty() const { return !tracking && !contact && odometry.empty() && videos.empty(); }
 };
 
+/// run_dir/metrics.json (the launcher's figures of the run, and the evaluations' once written). Throws
+/// std::runtime_error naming the file when it is missing or not a JSON object.
+nlohmann::json ReadRunMetrics(const std::string& run_dir);
+/// Sets `key` of run_dir/metrics.json to `value` (an evaluation's figures), keeping the rest.
+void SetRunMetric(const std::string& run_dir, const std::string& key, const nlohmann::json& value);
+
 /// Reads the scenario's `evaluation` section (unknown keys are errors). Throws bridge::ConfigError.
 RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario);
 
