@@ -375,4 +375,10 @@ std::optional<int64_t> MessageStampNs(const SchemaSet& schema, const uint8_t* da
   return int64_t{sec} * 1000000000 + nsec;
 }
 
+std::optional<int64_t> MessageTimeNs(const SchemaSet& schema, const uint8_t* data, size_t size) {
+  const std::optional<int64_t> stamp_ns = MessageStampNs(schema, data, size);
+  if (stamp_ns == 0) return std::nullopt;
+  return stamp_ns;
+}
+
 }  // namespace iapsim::bridge

@@ -97,6 +97,11 @@ class SchemaSet {
 /// message is too short to hold it.
 std::optional<int64_t> MessageStampNs(const SchemaSet& schema, const uint8_t* data, size_t size);
 
+/// The sim time a message refers to, for recording and replaying it: its stamp, or nullopt when it has none
+/// or the stamp is 0, which ROS reads as "not set" (a producer that never stamps its messages; a message
+/// of t = 0 is recorded at step 0's time, 0, all the same).
+std::optional<int64_t> MessageTimeNs(const SchemaSet& schema, const uint8_t* data, size_t size);
+
 /// Serialized size in bytes of one element of a fixed-size primitive kind (0 for string/message).
 size_t PrimitiveSize(FieldKind kind);
 

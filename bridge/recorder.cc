@@ -128,8 +128,8 @@ class Recorder : public Process {
   struct Stream {
     Publisher* publisher = nullptr;  // null: not seen yet
     Kind kind = Kind::kData;
-    int64_t connection = -1;  // in the bag; -1 when the topic is not recorded
-    std::string md5;          // a publisher that changes the topic's type gets another connection
+    int64_t connection = -1;            // in the bag; -1 when the topic is not recorded
+    std::string md5;                    // a publisher that changes the topic's type gets another connection
     const SchemaSet* schema = nullptr;  // recorded topics: finds the message's stamp
   };
 
@@ -138,7 +138,7 @@ class Recorder : public Process {
     Stream& stream = streams_[info.stream];
     if (stream.publisher == nullptr || stream.md5 != info.md5) stream = MakeStream(info);
     if (stream.connection >= 0) {
-      const int64_t stamp_ns = MessageStampNs(*stream.schema, data, size).value_or(-1);
+      const int64_t stamp_ns = MessageTimeNs(*stream.schema, data, size).value_or(-1);
       stream.publisher->Add(static_cast<uint32_t>(stream.connection), data, size, stamp_ns);
     }
     // acks and ticks are sent after the data they close (same socket, same order); both messages begin
@@ -178,8 +178,8 @@ class Recorder : public Process {
   }
 
   // Writes every publisher's messages closed by steps up to `step`, publishers in name order. A message's
-  // record time is its own stamp (the sim time it refers to, whenever it arrived); a message without one is
-  // recorded at the sim time of the step whose acknowledgement closed it.
+  // record time is its own stamp (the sim time it refers to, whenever it arrived); a message without one, or
+  // stamped 0 (unset), is recorded at the sim time of the step whose acknowledgement closed it.
   void WriteStep(uint64_t step) {
     for (auto& [name, publisher] : publishers_) {
       while (publisher.HasClosedSteps() && publisher.NextClosedStep() <= step) {
@@ -240,7 +240,7 @@ class Recorder : public Process {
   std::vector<std::string> connection_topics_;   // by bag connection
   std::vector<uint64_t> written_;                // by bag connection
   int64_t last_step_stamp_ns_ = 0;               // of the newest step a publisher closed
-  double step_s_ = 0.0;  // writing to the bag, compression and system calls included
+  double step_s_ = 0.0;                          // writing to the bag, compression and system calls included
 };
 
 }  // namespace

@@ -163,9 +163,10 @@ class Replayer : public Process {
   }
 
   // the time a message refers to: its stamp when it has one (what the data means), else when it was
-  // recorded (a bag cannot store time 0, so record times of t = 0 read 1 ns)
+  // recorded (a bag cannot store time 0, so the recorder writes t = 0 as 1 ns: read back as 0)
   static int64_t MessageTimeNs(const RegisteredType& type, const BagMessage& m) {
-    return MessageStampNs(*type.schema, m.bytes.data(), m.bytes.size()).value_or(m.record_time_ns);
+    return bridge::MessageTimeNs(*type.schema, m.bytes.data(), m.bytes.size())
+        .value_or(m.record_time_ns == 1 ? 0 : m.record_time_ns);
   }
 
   static void ReadStringList(YamlMap& params, const std::string& key, std::vector<std::string>* out) {

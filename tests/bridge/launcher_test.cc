@@ -384,6 +384,44 @@ TEST_F(LauncherTest, ConfigurationErrorsNameTheFileLineAndKey) {
   EXPECT_NE(missing.message.find("processes.replayer.params.bag"), std::string::npos) << missing.message;
 }
 
+// A producer that leaves header.stamp at 0 (ROS: not set): its messages are recorded at the step that
+// published them, not all at the bag's first instant, and replayed at those times.
+TEST_F(LauncherTest, AMessageStampedZeroIsRecordedAndReplayedAtItsStep) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(0.5));
+  const LaunchResult recorded = Run(scenario, "recorded", {"processes.uwb.params.unstamped=true"});
+  ASSERT_EQ(recorded.exit_code, 0) << recorded.message;
+  int64_t expected_ns = 1;  // a bag cannot hold time 0: the first record time is 1 ns
+  uint64_t count = 0;
+  BagReader(recorded.run_dir + "/run.bag").ForEach({"/iap/uwb"}, [&](const BagMessage& m) {
+    iapsim_msgs::UwbRanges ranges;
+    EXPECT_TRUE(Decode(m.bytes, &ranges, nullptr));
+    EXPECT_EQ(ranges.header.stamp.toNSec(), 0u);
+    EXPECT_EQ(m.record_time_ns, expected_ns) << "message " << count;
+    expected_ns = static_cast<int64_t>(++count) * 5000000;  // 200 Hz
+    return true;
+  });
+  EXPECT_EQ(count, 101u);
+
+  const LaunchResult replayed = Run(
+      scenario, "replayed",
+      {"processes.replayer.exec=iapsim_replayer",
+       "processes.replayer.params.bag=" + recorded.run_dir + "/run.bag",
+       "processes.replayer.params.topics=[/iap/uwb]", "processes.replayer.params.map=[/iap/uwb:=/old/uwb]"});
+  ASSERT_EQ(replayed.exit_code, 0) << replayed.message;
+  count = 0;
+  BagReader(replayed.run_dir + "/run.bag").ForEach({"/old/uwb"}, [&](const BagMessage& m) {
+    iapsim_msgs::UwbRanges ranges;
+    EXPECT_TRUE(Decode(m.bytes, &ranges, nullptr));
+    // played from one clock step on (the default time_offset_s), 5 ms apart as recorded
+    EXPECT_EQ(static_cast<int64_t>(ranges.header.stamp.toNSec()),
+              1000000 + static_cast<int64_t>(count) * 5000000)
+        << "message " << count;
+    ++count;
+    return true;
+  });
+  EXPECT_EQ(count, 101u);
+}
+
 TEST_F(LauncherTest, AnyStartOrderOverTcp) {
   const std::string scenario = WriteScenario("loop", LoopScenario(1.0));
   const LaunchResult result =
@@ -429,8 +467,8 @@ TEST_F(LauncherTest, AProcessAfterAPeerSeesThePeersOutputOfTheSameStep) {
   EXPECT_EQ(Metrics(result)["processes"]["control"]["process"]["steps"], 5001);
 
   // a cycle would stall the lockstep: rejected up front, naming the key
-  const LaunchResult cycle = Run(scenario, "cycle",
-                                 {"processes.control.after=[uwb]", "processes.uwb.after=[control]"});
+  const LaunchResult cycle =
+      Run(scenario, "cycle", {"processes.control.after=[uwb]", "processes.uwb.after=[control]"});
   EXPECT_EQ(cycle.exit_code, 2) << cycle.message;
   EXPECT_NE(cycle.message.find("after: forms a cycle"), std::string::npos) << cycle.message;
   const LaunchResult unknown = Run(scenario, "unknown", {"processes.control.after=[imu]"});

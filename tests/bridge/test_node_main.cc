@@ -48,6 +48,7 @@ class TestNode : public Process {
     params.OptionalInRange("setup_delay_s", &setup_delay_s_, 0.0, 10.0);
     params.Optional("expect_uwb_of_step", &expect_uwb_of_step_);
     params.Optional("expect_uwb_of_previous_step", &expect_uwb_of_previous_step_);
+    params.Optional("unstamped", &unstamped_);
   }
 
   void Setup(Bus& bus) override {
@@ -166,7 +167,7 @@ class TestNode : public Process {
 
   void StepSensor(const StepInfo& step) {
     iapsim_msgs::UwbRanges ranges;
-    ranges.header.stamp = ToRosTime(step.stamp_ns);
+    if (!unstamped_) ranges.header.stamp = ToRosTime(step.stamp_ns);  // else 0: a producer that never stamps
     ranges.tag = "sub1";
     std::normal_distribution<double> noise(0.0, noise_m_);
     for (int anchor = 0; anchor < 4; ++anchor) {
@@ -194,6 +195,7 @@ class TestNode : public Process {
   double setup_delay_s_ = 0.0;
   bool expect_uwb_of_step_ = false;
   bool expect_uwb_of_previous_step_ = false;
+  bool unstamped_ = false;
   int64_t previous_stamp_ns_ = -1;
   int64_t uwb_stamp_ns_ = -1;
   Bus* bus_ = nullptr;
