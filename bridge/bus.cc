@@ -102,6 +102,8 @@ struct Bus::Impl {
     uint64_t next = 0;
     TopicCounters* counters = nullptr;  // a node of BusStats::topics: its address never changes
     uint32_t stream = 0;                // received: MessageInfo::stream
+    size_t max_bytes = 0;               // the topic's size limit
+    bool oversized_logged = false;      // received: a discarded message was logged
     // published: the meta frame, made once per type; each message writes its sequence and send time in
     const TypeInfo* meta_type = nullptr;
     std::string meta;
@@ -215,14 +217,27 @@ struct Bus::Impl {
       sequence.counters = &stats.topics[topic];
       sequence.counters->subscribed = true;
       sequence.stream = stream;
+      sequence.max_bytes = options.message_limits.For(topic);
       found = received.emplace(received_key, std::move(sequence)).first;
     }
     Sequence& expected = found->second;
-    ++expected.counters->received;
     if (meta.sequence > expected.next && !(meta.flags & kResyncFlag)) {
       expected.counters->lost += meta.sequence - expected.next;
     }
     expected.next = meta.sequence + 1;
+    // a peer with other limits (or none): never decoded, so it cannot make this process allocate for it
+    if (payload_size > expected.max_bytes) {
+      ++expected.counters->oversized;
+      if (!expected.oversized_logged) {
+        expected.oversized_logged = true;
+        spdlog::warn(
+            "node '{}': discarded a message of {} bytes on '{}' from '{}': over the topic's limit of {} "
+            "bytes",
+            options.node_name, payload_size, topic, meta.publisher, expected.max_bytes);
+      }
+      return false;
+    }
+    ++expected.counters->received;
 
     const MessageInfo info{topic,         meta.datatype,     meta.md5,       meta.publisher,
                            meta.sequence, meta.sent_unix_ns, expected.stream};
@@ -299,10 +314,12 @@ Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
   sub.set(zmq::sockopt::rcvhwm, options.receive_hwm);
   sub.set(zmq::sockopt::linger, 0);
   sub.set(zmq::sockopt::reconnect_ivl, 10);  // peers may bind after we connect: retry quickly
-  // what a peer may send: subscriptions to a publisher (a topic name), messages up to the largest queue to
-  // a subscriber; a larger one drops the connection instead of growing this process's memory
+  // what a peer may send: subscriptions to a publisher (a topic name), messages up to the largest queue and
+  // the largest topic limit to a subscriber; a larger one drops the connection instead of growing this
+  // process's memory
   pub.set(zmq::sockopt::maxmsgsize, int64_t{kMaxSubscriptionBytes});
-  sub.set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(options.shm_max_queue_bytes));
+  sub.set(zmq::sockopt::maxmsgsize,
+          static_cast<int64_t>(std::min(options.shm_max_queue_bytes, options.message_limits.Largest())));
   if (!options.secret.empty()) {
     // a run's ZeroMQ connections (ipc and tcp) use CURVE with the keys of its secret: a peer without them is
     // refused at the handshake (and counted), and nothing travels in clear
@@ -384,7 +401,13 @@ void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8
   if (found == impl.published.end()) {
     Impl::Sequence sequence;
     sequence.counters = &stats_.topics[topic];
+    sequence.max_bytes = impl.options.message_limits.For(topic);
     found = impl.published.emplace(topic, std::move(sequence)).first;
+  }
+  if (size > found->second.max_bytes) {
+    throw BusError("node '" + impl.options.node_name + "', topic '" + topic + "': a message of " +
+                   std::to_string(size) + " bytes is over the topic's limit of " +
+                   std::to_string(found->second.max_bytes) + " bytes (the scenario's bus.max_message_kib)");
   }
   auto& counters = *found->second.counters;
   uint64_t& sequence = found->second.next;
@@ -508,7 +531,8 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
         if (e.num() != EINTR) throw;  // a signal: the caller's loop sees the stop request
       }
     } else {
-      const timespec wait{static_cast<time_t>(left.count() / 1000000), static_cast<long>(left.count() % 1000000) * 1000};
+      const timespec wait{static_cast<time_t>(left.count() / 1000000),
+                          static_cast<long>(left.count() % 1000000) * 1000};
       event = ppoll(fds.data(), fds.size(), &wait, nullptr) != 0;
     }
     ++stats_.sleeps;

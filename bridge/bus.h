@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "bridge/message.h"
+#include "bridge/message_limits.h"
 
 namespace iapsim::bridge {
 
@@ -53,7 +54,7 @@ struct BusOptions {
   int receive_hwm = 10000;                  // messages queued per publisher at this subscriber
   DropPolicy drop_policy = DropPolicy::kBlock;
   std::chrono::milliseconds block_timeout{2000};
-  std::chrono::microseconds spin{50};         // shm peers: Spin polls the queues this long, then sleeps
+  std::chrono::microseconds spin{50};  // shm peers: Spin polls the queues this long, then sleeps
   // shm peers, 0: a sleeping subscriber is woken by its publishers when data arrives (a system call on their
   // side); > 0: it sleeps this long at most and then looks at its queues, and publishers never wake it (for
   // a subscriber that may lag, such as the recorder, so as to cost its publishers nothing)
@@ -66,13 +67,17 @@ struct BusOptions {
   // shm: the run's processes. A blocking publisher waits only for these; another subscriber (`iapsim echo`)
   // is best effort and is dropped when it stops reading. Empty: every subscriber is waited for.
   std::vector<std::string> members;
+  // the largest message per topic: PublishRaw throws BusError on a larger one; Spin discards a larger one
+  // from a peer (counted as `oversized`, logged once per publisher and topic) before any callback sees it
+  MessageSizeLimits message_limits;
 };
 
 struct TopicCounters {
   uint64_t sent = 0;
   uint64_t dropped = 0;  // not sent: a subscriber's queue stayed full (see DropPolicy)
   uint64_t received = 0;
-  uint64_t lost = 0;  // gaps in the publisher's sequence seen at this subscriber
+  uint64_t lost = 0;       // gaps in the publisher's sequence seen at this subscriber
+  uint64_t oversized = 0;  // received over the topic's size limit (BusOptions::message_limits): discarded
   // this node subscribed to the topic by name or received some of it (what it may have missed: the
   // launcher compares `received` with what its peers published)
   bool subscribed = false;

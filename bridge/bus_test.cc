@@ -28,7 +28,7 @@ std::string UniqueEndpoint(const std::string& name) {
   std::replace(test_name.begin(), test_name.end(), '/', '-');
   const std::string tag = "iapsim-test-" + std::to_string(getpid()) + "-" + test_name + "-" + name;
   return test->value_param() && std::string(test->value_param()) == "\"shm\"" ? "shm://" + tag
-                                                                               : "ipc://@" + tag;
+                                                                              : "ipc://@" + tag;
 }
 
 BusOptions Options(const std::string& name, const std::vector<std::string>& peers) {
@@ -143,6 +143,59 @@ TEST_P(BusOn, RefusesTypeMismatchWithAClearError) {
   }
 }
 
+TEST(MessageSizeLimits, TheLongestKeyThatCoversATopicWins) {
+  MessageSizeLimits limits;
+  limits.default_bytes = 1000;
+  limits.topic_bytes = {{"/iap/", 200}, {"/iap/camera/", 5000}, {"/iap/state", 100}};
+  EXPECT_EQ(limits.For("/iap/state"), 100u);
+  EXPECT_EQ(limits.For("/iap/state_estimate"), 200u);  // a key without '/' at its end is one topic
+  EXPECT_EQ(limits.For("/iap/camera/left"), 5000u);
+  EXPECT_EQ(limits.For("/iap/cmd"), 200u);
+  EXPECT_EQ(limits.For("/clock"), 1000u);
+  EXPECT_EQ(limits.For("/iap"), 1000u);
+  EXPECT_EQ(limits.Largest(), 5000u);
+}
+
+// A topic's size limit holds at both ends: the publisher refuses a larger message with an error naming the
+// topic, and a subscriber with a tighter limit than its peer discards what is over it, counts it and goes
+// on with the rest in order.
+TEST_P(BusOn, TopicSizeLimitsHoldAtPublisherAndSubscriber) {
+  BusOptions publisher_options = Options("pub", {"sub"});
+  publisher_options.message_limits.topic_bytes = {{"/small", 64}};
+  Bus publisher(publisher_options);
+  BusOptions subscriber_options = Options("sub", {"pub"});
+  subscriber_options.message_limits.topic_bytes = {{"/text/", 100}};
+  Bus subscriber(subscriber_options);
+  std::vector<size_t> lengths;
+  subscriber.Subscribe<std_msgs::String>(
+      "/text/a", [&](const std_msgs::String& m, const MessageInfo&) { lengths.push_back(m.data.size()); });
+  Handshake(publisher, subscriber);
+
+  std_msgs::String text;
+  text.data.assign(100, 'x');  // 104 bytes serialised
+  try {
+    publisher.Publish("/small", text);
+    FAIL() << "a message over its topic's limit was sent";
+  } catch (const BusError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("'/small'"), std::string::npos) << what;
+    EXPECT_NE(what.find("104 bytes"), std::string::npos) << what;
+    EXPECT_NE(what.find("limit of 64 bytes"), std::string::npos) << what;
+  }
+  for (const size_t length : {10, 96, 97, 200, 20}) {  // 96 + 4 = 100 bytes: at the limit
+    text.data.assign(length, 'x');
+    publisher.Publish("/text/a", text);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (lengths.size() < 3 && std::chrono::steady_clock::now() < deadline) subscriber.Spin(milliseconds(10));
+  EXPECT_EQ(lengths, (std::vector<size_t>{10, 96, 20}));
+  const TopicCounters& counters = subscriber.stats().topics.at("/text/a");
+  EXPECT_EQ(counters.received, 3u);
+  EXPECT_EQ(counters.oversized, 2u);
+  EXPECT_EQ(counters.lost, 0u);
+  EXPECT_EQ(publisher.stats().topics.at("/text/a").sent, 5u);
+}
+
 // A subscriber that takes a few messages at a time while its publisher sends many more: the rest wait,
 // whole and in order, while the queue behind them grows (shm: from 64 kB to megabytes) and wraps.
 TEST_P(BusOn, APartiallyReadingSubscriberGetsTheRestInOrder) {
@@ -175,7 +228,7 @@ TEST_P(BusOn, APartiallyReadingSubscriberGetsTheRestInOrder) {
 // Best effort: a subscriber that does not keep up loses messages (and counts them); a fast one loses none.
 TEST_P(BusOn, ASlowSubscriberLosesMessagesAloneAndCountsThem) {
   auto options = Options("fast", {"slow", "quick"});
-  options.send_hwm = 1000;  // with the slow subscriber's 10-message receive queue: ~1010 fit
+  options.send_hwm = 1000;                // with the slow subscriber's 10-message receive queue: ~1010 fit
   options.shm_max_queue_bytes = 1 << 20;  // ~1000 of them
   options.drop_policy = DropPolicy::kDropNewest;
   Bus publisher(options);
@@ -305,9 +358,8 @@ TEST(BusShm, GrowsTheQueueForALargeMessageAndRefusesOneTooLarge) {
   recorder_options.peer_endpoints = {options.bind_endpoint};
   Bus recorder(recorder_options);
   std::vector<std::string> received;
-  recorder.Subscribe<std_msgs::String>("/image", [&](const std_msgs::String& m, const MessageInfo&) {
-    received.push_back(m.data);
-  });
+  recorder.Subscribe<std_msgs::String>(
+      "/image", [&](const std_msgs::String& m, const MessageInfo&) { received.push_back(m.data); });
   Handshake(camera, recorder);
   std_msgs::String image;
   const std::vector<size_t> sizes = {1000, 1500000, 10};  // the initial queue is 64 KiB

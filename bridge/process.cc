@@ -43,15 +43,11 @@ extern "C" void OnStopSignal(int signal) {
   alarm(3);  // backstop: a process that cannot wind down within 3 s is ended by SIGALRM's default action
 }
 
-
 nlohmann::json BusReport(const BusStats& stats) {
   nlohmann::json topics = nlohmann::json::object();
   for (const auto& [topic, c] : stats.topics) {
-    topics[topic] = {{"sent", c.sent},
-                     {"dropped", c.dropped},
-                     {"received", c.received},
-                     {"lost", c.lost},
-                     {"subscribed", c.subscribed}};
+    topics[topic] = {{"sent", c.sent}, {"dropped", c.dropped},     {"received", c.received},
+                     {"lost", c.lost}, {"oversized", c.oversized}, {"subscribed", c.subscribed}};
   }
   return {{"topics", topics},
           {"malformed", stats.malformed},
@@ -123,8 +119,10 @@ class Runtime {
     options.send_hwm = scenario.bus.send_hwm;
     options.receive_hwm = scenario.bus.receive_hwm;
     // realtime: the wall clock paces the run, so waiting processes sleep at once and leave the CPU to work
-    options.spin = std::chrono::microseconds(scenario.mode == ClockMode::kRealtime ? 0 : scenario.bus.spin_us);
+    options.spin =
+        std::chrono::microseconds(scenario.mode == ClockMode::kRealtime ? 0 : scenario.bus.spin_us);
     options.shm_max_queue_bytes = static_cast<size_t>(scenario.bus.shm_queue_max_mib) << 20;
+    options.message_limits = scenario.bus.message_limits;
     // a process that may lag (the recorder) reads its queues every 2 ms, in batches, and is never
     // woken: it neither spins on a core that physics and control need nor costs its publishers a wake-up
     if (self.max_lag_steps > 0 && scenario.mode != ClockMode::kRealtime) {
@@ -431,7 +429,7 @@ class Runtime {
   int self_index_;
   ControlClient& control_;
   Bus bus_;
-  std::vector<int64_t> last_ack_;  // per schedule member: highest step acknowledged
+  std::vector<int64_t> last_ack_;           // per schedule member: highest step acknowledged
   std::vector<int> gating_previous_peers_;  // whose ack of their last due step before k it waits for
   std::vector<int> gating_peers_;  // schedule members whose ack of k this process waits for before step k
   std::vector<uint64_t> late_acks_;

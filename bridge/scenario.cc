@@ -291,6 +291,23 @@ Scenario Load(const std::string& path, const std::vector<std::string>& overrides
   bus.OptionalInRange("receive_hwm", &s.bus.receive_hwm, 1, 10000000);
   bus.OptionalInRange("spin_us", &s.bus.spin_us, 0, 100000);
   bus.OptionalInRange("shm_queue_max_mib", &s.bus.shm_queue_max_mib, 1, 4096);
+  s.bus.message_limits.default_bytes = static_cast<size_t>(s.bus.shm_queue_max_mib) << 20;
+  YamlMap limits = bus.Map("max_message_kib");
+  for (const auto& key : limits.Keys()) {
+    if (key != "default" && (key.empty() || key[0] != '/')) {
+      limits.Fail(key, "must be 'default', a topic or a namespace ending in '/' (names start with '/')");
+    }
+    int kib = 0;
+    // a message must fit a connection's queue
+    limits.OptionalInRange(key, &kib, 1, s.bus.shm_queue_max_mib * 1024);
+    const size_t bytes = static_cast<size_t>(kib) << 10;
+    if (key == "default") {
+      s.bus.message_limits.default_bytes = bytes;
+    } else {
+      s.bus.message_limits.topic_bytes[key] = bytes;
+    }
+  }
+  limits.Finish();
   bus.Optional("control_endpoint", &s.bus.control_endpoint);
   YamlMap endpoints = bus.Map("endpoints");
   for (const auto& process : endpoints.Keys()) endpoints.Required(process, &s.bus.endpoints[process]);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "bridge/config.h"
+#include "bridge/message_limits.h"
 
 namespace iapsim::bridge {
 
@@ -35,10 +36,13 @@ struct BusConfig {
   // tcp: process i binds tcp_base_port + i; 0 (the default): ports the kernel says are free, so that runs at
   // the same time never collide
   int tcp_base_port = 0;
-  int send_hwm = 10000;           // ipc, tcp: messages queued per connection
+  int send_hwm = 10000;  // ipc, tcp: messages queued per connection
   int receive_hwm = 10000;
   int spin_us = 200;  // shm, lockstep/fast: how long a waiting process looks for a message before it sleeps
-  int shm_queue_max_mib = 64;     // shm: the most a connection queues (and the largest message)
+  int shm_queue_max_mib = 64;  // shm: the most a connection queues (and the largest message)
+  // bus.max_message_kib: {default: KiB, TOPIC: KiB, NAMESPACE/: KiB}; by default every topic may carry
+  // what a queue holds
+  MessageSizeLimits message_limits;
   // written by the launcher into scenario.resolved.yaml, so a process restarts from that file alone
   std::map<std::string, std::string> endpoints;  // process -> its publisher endpoint
   std::string control_endpoint;                  // the launcher's control socket

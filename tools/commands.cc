@@ -130,6 +130,7 @@ std::unique_ptr<Bus> InspectorBus(const std::string& run_dir) {
   options.bind_endpoint = "ipc://@" + options.node_name;
   for (const auto& [name, endpoint] : scenario.bus.endpoints) options.peer_endpoints.push_back(endpoint);
   options.drop_policy = DropPolicy::kDropNewest;
+  options.message_limits = scenario.bus.message_limits;
   options.secret = ReadRunSecret(run_dir);  // RUN/secret: readable by the user who started the run
   return std::make_unique<Bus>(options);
 }

@@ -360,6 +360,10 @@ TEST_F(LauncherTest, ConfigurationErrorsNameTheFileLineAndKey) {
        "recording.compression: must be one of none, lz4"},
       {"lag", "seed: 42\n", "seed: 42\nrecording: {max_lag_steps: 2000000}\n",
        "recording.max_lag_steps: must be in [0, 1000000]"},
+      {"limit key", "seed: 42\n", "seed: 42\nbus: {max_message_kib: {iap/state: 4}}\n",
+       "bus.max_message_kib.iap/state: must be 'default', a topic or a namespace ending in '/'"},
+      {"limit", "seed: 42\n", "seed: 42\nbus: {shm_queue_max_mib: 1, max_message_kib: {default: 2048}}\n",
+       "bus.max_message_kib.default: must be in [1, 1024]"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.name);
@@ -420,6 +424,23 @@ TEST_F(LauncherTest, AMessageStampedZeroIsRecordedAndReplayedAtItsStep) {
     return true;
   });
   EXPECT_EQ(count, 101u);
+}
+
+// A process that publishes a message over its topic's size limit stops the run with an error that names the
+// process, the topic and the limit.
+TEST_F(LauncherTest, AMessageOverItsTopicLimitStopsTheRunAndSaysWhich) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(0.5));
+  // 64 bodies make a state of about 13 KiB
+  const LaunchResult result =
+      Run(scenario, "run", {"processes.physics.params.bodies=64", "bus.max_message_kib./iap/state=4"});
+  EXPECT_NE(result.exit_code, 0);
+  EXPECT_NE(result.message.find("physics"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("'/iap/state'"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("limit of 4096 bytes"), std::string::npos) << result.message;
+  // within it the same run completes
+  const LaunchResult within =
+      Run(scenario, "within", {"processes.physics.params.bodies=64", "bus.max_message_kib./iap/state=16"});
+  EXPECT_EQ(within.exit_code, 0) << within.message;
 }
 
 TEST_F(LauncherTest, AnyStartOrderOverTcp) {
