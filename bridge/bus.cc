@@ -26,6 +26,9 @@ constexpr char kHelloTopic[] = "/iapsim/hello";
 constexpr char kConfirmTopic[] = "/iapsim/hello_confirm";
 // the largest message a ZeroMQ publisher takes from a peer: a subscription (a topic prefix)
 constexpr size_t kMaxSubscriptionBytes = 64 << 10;
+// ZAP domains of a ZeroMQ node's two publisher sockets
+constexpr char kMemberDomain[] = "iapsim";
+constexpr char kObserverDomain[] = "iapsim-observers";
 
 // meta frame: u8 version | u64 sequence | i64 sent_unix_ns | u16 n + datatype | 32 md5 chars | u16 n +
 // publisher
@@ -87,7 +90,10 @@ struct Bus::Impl {
   zmq::context_t context{1};
   std::optional<internal::ZapGate> zap;  // with a secret: the ZeroMQ publisher's authentication
   zmq::socket_t publisher{context, zmq::socket_type::xpub};
+  zmq::socket_t observers;  // BusOptions::observer_endpoint (an XPUB), when bound
   zmq::socket_t subscriber{context, zmq::socket_type::sub};
+  std::vector<std::string> observer_joins;  // where observers joined from, until logged
+  int observed_prefixes = 0;  // topic prefixes observers subscribed to: none, nothing to send them
   std::unique_ptr<internal::ShmPublisher> shm_publisher;    // when bound to shm://
   std::unique_ptr<internal::ShmSubscriber> shm_subscriber;  // when some peers are shm://
   bool zmq_peers = false;
@@ -283,6 +289,11 @@ struct Bus::Impl {
       stats->refused_peers += shm_subscriber->refused();
     }
     for (const std::string& e : events) spdlog::warn("node '{}': {}", options.node_name, e);
+    for (const std::string& address : observer_joins) {
+      spdlog::info("node '{}': an observer joined{}; it gets messages best effort and never holds this node",
+                   options.node_name, address.empty() ? "" : " from " + address);
+    }
+    observer_joins.clear();
   }
   // a process that only publishes takes its subscribers too
   void AcceptSubscribers() {
@@ -293,10 +304,20 @@ struct Bus::Impl {
     ReportConnectionEvents();
   }
 
-  // subscription notices arrive on the XPUB socket; they are only drained to bound its queue
+  // subscription notices arrive on the XPUB sockets: the publisher's are only drained to bound their queue;
+  // the observers' tell whether anyone watches (an XPUB passes on the first subscription to a prefix and,
+  // when the last subscriber of it leaves or disconnects, its unsubscription)
   void DrainSubscriptionNotices() {
     zmq::message_t notice;
     while (publisher.recv(notice, zmq::recv_flags::dontwait)) {
+    }
+    while (observers && observers.recv(notice, zmq::recv_flags::dontwait)) {
+      if (notice.size() == 0) continue;
+      if (static_cast<const uint8_t*>(notice.data())[0] == 1) {
+        ++observed_prefixes;
+      } else if (observed_prefixes > 0) {
+        --observed_prefixes;
+      }
     }
   }
 };
@@ -320,40 +341,66 @@ Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
   pub.set(zmq::sockopt::maxmsgsize, int64_t{kMaxSubscriptionBytes});
   sub.set(zmq::sockopt::maxmsgsize,
           static_cast<int64_t>(std::min(options.shm_max_queue_bytes, options.message_limits.Largest())));
+  const bool shm_publisher = internal::IsShmEndpoint(options.bind_endpoint);
+  // shared memory tells observers apart by name; ZeroMQ by the socket they connect to
+  if (!shm_publisher && !options.observer_endpoint.empty()) {
+    auto& observers = impl_->observers = zmq::socket_t(impl_->context, zmq::socket_type::xpub);
+    observers.set(zmq::sockopt::sndhwm, options.send_hwm);
+    observers.set(zmq::sockopt::xpub_nodrop, 0);
+    observers.set(zmq::sockopt::linger, 0);
+    observers.set(zmq::sockopt::maxmsgsize, int64_t{kMaxSubscriptionBytes});
+  }
   if (!options.secret.empty()) {
     // a run's ZeroMQ connections (ipc and tcp) use CURVE with the keys of its secret: a peer without them is
-    // refused at the handshake (and counted), and nothing travels in clear
+    // refused at the handshake (and counted), and nothing travels in clear. The run's processes present
+    // one client key, observers another: each is accepted at its own publisher socket only.
     try {
       const internal::CurveKeys keys = internal::RunCurveKeys(options.secret);
-      impl_->zap.emplace(impl_->context,
-                         [client = keys.client_public_raw](const std::string& mechanism,
-                                                           const std::vector<std::string>& credentials) {
-                           if (mechanism != "CURVE" || credentials.size() != 1 || credentials[0] != client) {
-                             return std::string("a peer without the run's keys");
-                           }
-                           return std::string();
-                         });
-      pub.set(zmq::sockopt::curve_server, 1);
-      pub.set(zmq::sockopt::curve_secretkey, keys.server_secret);
-      pub.set(zmq::sockopt::zap_domain, "iapsim");
-      impl_->zap->Watch(pub);
+      impl_->zap.emplace(impl_->context, [impl = impl_.get(), keys](const internal::ZapRequest& request) {
+        const bool client =
+            request.credentials.size() == 1 && request.credentials[0] == keys.client_public_raw;
+        const bool observer =
+            request.credentials.size() == 1 && request.credentials[0] == keys.observer_public_raw;
+        if (request.mechanism != "CURVE" || !(client || observer))
+          return std::string("a peer without the run's keys");
+        if (request.domain == kObserverDomain) {
+          impl->observer_joins.push_back(request.address);
+          return std::string();
+        }
+        if (observer)
+          return std::string("an observer at a run process's endpoint (observers have their own)");
+        return std::string();
+      });
+      const auto serve = [&](zmq::socket_t& socket, const char* domain) {
+        socket.set(zmq::sockopt::curve_server, 1);
+        socket.set(zmq::sockopt::curve_secretkey, keys.server_secret);
+        socket.set(zmq::sockopt::zap_domain, domain);
+        impl_->zap->Watch(socket);
+      };
+      serve(pub, kMemberDomain);
+      if (impl_->observers) serve(impl_->observers, kObserverDomain);
       sub.set(zmq::sockopt::curve_serverkey, keys.server_public);
-      sub.set(zmq::sockopt::curve_publickey, keys.client_public);
-      sub.set(zmq::sockopt::curve_secretkey, keys.client_secret);
+      sub.set(zmq::sockopt::curve_publickey, options.observer ? keys.observer_public : keys.client_public);
+      sub.set(zmq::sockopt::curve_secretkey, options.observer ? keys.observer_secret : keys.client_secret);
     } catch (const std::exception& e) {
       throw BusError("node '" + options.node_name + "': " + e.what());
     }
   }
+  std::string binding = options.bind_endpoint;
   try {
-    if (internal::IsShmEndpoint(options.bind_endpoint)) {
+    if (shm_publisher) {
       impl_->shm_publisher = std::make_unique<internal::ShmPublisher>(
           internal::ShmPublisher::Options{options.bind_endpoint, options.shm_initial_queue_bytes,
                                           options.shm_max_queue_bytes, options.secret, options.members});
     } else {
       pub.bind(options.bind_endpoint);
+      if (impl_->observers) {
+        binding = options.observer_endpoint;
+        impl_->observers.bind(options.observer_endpoint);
+      }
     }
   } catch (const std::exception& e) {
-    throw BusError("node '" + options.node_name + "': cannot bind publisher to '" + options.bind_endpoint +
+    throw BusError("node '" + options.node_name + "': cannot bind publisher to '" + binding +
                    "': " + e.what());
   }
   std::vector<std::string> shm_peers;
@@ -470,6 +517,13 @@ void Bus::PublishRaw(const std::string& topic, const TypeInfo& type, const uint8
   // the remaining parts of a multipart message are never refused once the first part was accepted
   impl.publisher.send(zmq::buffer(meta), zmq::send_flags::sndmore);
   impl.publisher.send(zmq::const_buffer(data, size), zmq::send_flags::none);
+  // never refused (no XPUB_NODROP): a full queue drops the message for its observer alone. Without
+  // observers, not even copied into the socket (a 0.9 MB image would cost milliseconds)
+  if (impl.observed_prefixes > 0) {
+    impl.observers.send(topic_frame, zmq::send_flags::sndmore | zmq::send_flags::dontwait);
+    impl.observers.send(zmq::buffer(meta), zmq::send_flags::sndmore);
+    impl.observers.send(zmq::const_buffer(data, size), zmq::send_flags::none);
+  }
   ++counters.sent;
   ++sequence;
 }
@@ -491,8 +545,8 @@ void Bus::SubscribeRaw(const std::string& prefix, RawCallback callback) {
 int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
   auto& impl = *impl_;
   impl.Maintain(/*now=*/false);
-  // a ZeroMQ publisher's subscription notices are only drained to bound their queue; now and then, as each
-  // is a system call (about 20 us in a VM)
+  // a ZeroMQ publisher's subscription notices: now and then, as each read is a system call (about 20 us in
+  // a VM)
   if (!impl.shm_publisher && ++impl.spins_since_drain >= 64) {
     impl.DrainSubscriptionNotices();
     impl.spins_since_drain = 0;

@@ -3,7 +3,8 @@
 //
 // Topology: every node binds one publisher endpoint and connects its subscriber to the endpoints of its
 // peers. All of a node's topics leave through that one publisher, so the messages of one node reach a
-// subscriber in the order they were sent, across topics (the lockstep protocol relies on it).
+// subscriber in the order they were sent, across topics (the lockstep protocol relies on it). A ZeroMQ
+// publisher may bind a second endpoint for observers (BusOptions::observer_endpoint), which never wait.
 //
 // Transports, by endpoint (a node may bind one kind and have peers of any kind):
 //   shm://NAME        same host, shared memory: a queue per (publisher, subscriber) pair that the subscriber
@@ -67,6 +68,13 @@ struct BusOptions {
   // shm: the run's processes. A blocking publisher waits only for these; another subscriber (`iapsim echo`)
   // is best effort and is dropped when it stops reading. Empty: every subscriber is waited for.
   std::vector<std::string> members;
+  // ZeroMQ (ipc, tcp), where a blocking publisher waits for every subscriber of its socket: a second
+  // publisher endpoint, for subscribers that are not of the run. Each gets this node's messages best effort
+  // (a full queue drops them for it alone), so none can hold the run. Empty: none.
+  std::string observer_endpoint;
+  // this node is not of the run (`iapsim echo`): with a secret it presents the observer keys, which only
+  // observer endpoints accept (shared memory tells it apart by `members`)
+  bool observer = false;
   // the largest message per topic: PublishRaw throws BusError on a larger one; Spin discards a larger one
   // from a peer (counted as `oversized`, logged once per publisher and topic) before any callback sees it
   MessageSizeLimits message_limits;

@@ -317,6 +317,76 @@ TEST(BusEndpoints, ReportsAnEndpointItCannotBind) {
   }
 }
 
+// ZeroMQ: a blocking publisher waits for every subscriber of its socket, so observers connect to a socket of
+// their own that never waits. One that reads nothing while 5,000 messages go out (its queues hold ~20)
+// holds nothing up: the run's subscriber gets every message and the publisher drops none.
+TEST(BusObservers, AnObserverThatStopsReadingNeverHoldsABlockingZeroMqPublisher) {
+  const std::string tag = "iapsim-test-" + std::to_string(getpid()) + "-observers-";
+  BusOptions options;
+  options.node_name = "physics";
+  options.bind_endpoint = "ipc://@" + tag + "physics";
+  options.observer_endpoint = "ipc://@" + tag + "physics-observers";
+  options.peer_endpoints = {"ipc://@" + tag + "control"};
+  options.send_hwm = 10;
+  options.block_timeout = milliseconds(200);
+  options.secret = std::string(64, 'a');
+  Bus publisher(options);
+  BusOptions member_options;
+  member_options.node_name = "control";
+  member_options.bind_endpoint = "ipc://@" + tag + "control";
+  member_options.peer_endpoints = {options.bind_endpoint};
+  member_options.secret = options.secret;
+  Bus member(member_options);
+  BusOptions observer_options = member_options;
+  observer_options.node_name = "echo";
+  observer_options.bind_endpoint = "ipc://@" + tag + "echo";
+  observer_options.peer_endpoints = {options.observer_endpoint};
+  observer_options.receive_hwm = 10;
+  observer_options.observer = true;
+  Bus observer(observer_options);
+  uint64_t member_received = 0, observer_received = 0;
+  member.SubscribeRaw("/s", [&](const uint8_t*, size_t, const MessageInfo&) { ++member_received; });
+  observer.SubscribeRaw("/s", [&](const uint8_t*, size_t, const MessageInfo&) { ++observer_received; });
+  Handshake(publisher, member);
+  std_msgs::String text;
+  text.data.assign(1000, 'x');
+  // the observer's subscription is live once it has a message
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (observer_received == 0 && std::chrono::steady_clock::now() < deadline) {
+    publisher.Publish("/s", text);
+    publisher.Spin(milliseconds(0));
+    member.Spin(milliseconds(0));
+    observer.Spin(milliseconds(10));
+  }
+  ASSERT_GT(observer_received, 0u);
+  const uint64_t before = member_received;
+  for (uint64_t i = 0; i < 5000; ++i) {
+    publisher.Publish("/s", text);
+    while (member.Spin(milliseconds(0)) > 0) {
+    }
+  }
+  deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (member_received < before + 5000 && std::chrono::steady_clock::now() < deadline) {
+    member.Spin(milliseconds(10));
+  }
+  EXPECT_EQ(publisher.stats().topics.at("/s").dropped, 0u);
+  EXPECT_EQ(member.stats().topics.at("/s").lost, 0u);
+  EXPECT_GE(member_received, before + 5000);
+  // the observer, reading again, finds what its queues held and counts the rest as lost
+  const uint64_t observed_before = observer_received;
+  deadline = std::chrono::steady_clock::now() + milliseconds(300);
+  while (std::chrono::steady_clock::now() < deadline) observer.Spin(milliseconds(10));
+  EXPECT_LT(observer_received - observed_before, 1000u);
+  // the next message it gets shows the gap
+  const uint64_t drained = observer_received;
+  publisher.Publish("/s", text);
+  deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (observer_received == drained && std::chrono::steady_clock::now() < deadline) {
+    observer.Spin(milliseconds(10));
+  }
+  EXPECT_GT(observer.stats().topics.at("/s").lost, 4000u);
+}
+
 TEST(BusEndpoints, TcpLoopbackWithWildcardPort) {
   BusOptions a_options;
   a_options.node_name = "a";

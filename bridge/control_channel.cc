@@ -67,18 +67,17 @@ std::optional<ControlMessage> ControlClient::Receive(std::chrono::milliseconds t
 
 struct ControlServer::Impl {
   explicit Impl(const std::string& secret, const std::vector<std::string>& processes)
-      : gate(context,
-             [secret, processes](const std::string& mechanism, const std::vector<std::string>& credentials) {
-               // PLAIN: the user name is the process's name, the password the run's secret
-               if (mechanism != "PLAIN" || credentials.size() != 2)
-                 return std::string("a peer with no name and password");
-               if (std::find(processes.begin(), processes.end(), credentials[0]) == processes.end()) {
-                 return "'" + credentials[0] + "' is not a process of this run";
-               }
-               if (!SameSecret(credentials[1], secret))
-                 return "'" + credentials[0] + "' without the run's secret";
-               return std::string();
-             }) {}
+      : gate(context, [secret, processes](const internal::ZapRequest& request) {
+          // PLAIN: the user name is the process's name, the password the run's secret
+          const std::vector<std::string>& credentials = request.credentials;
+          if (request.mechanism != "PLAIN" || credentials.size() != 2)
+            return std::string("a peer with no name and password");
+          if (std::find(processes.begin(), processes.end(), credentials[0]) == processes.end()) {
+            return "'" + credentials[0] + "' is not a process of this run";
+          }
+          if (!SameSecret(credentials[1], secret)) return "'" + credentials[0] + "' without the run's secret";
+          return std::string();
+        }) {}
   zmq::context_t context{1};
   internal::ZapGate gate;  // bound before the server socket exists, so no handshake passes unchecked
   zmq::socket_t socket{context, zmq::socket_type::router};
@@ -112,7 +111,7 @@ std::optional<ControlMessage> ControlServer::Receive(std::chrono::milliseconds t
   while (true) {
     zmq::pollitem_t items[] = {{impl.socket.handle(), 0, ZMQ_POLLIN, 0},
                                {impl.gate.zap().handle(), 0, ZMQ_POLLIN, 0},
-                               {impl.gate.monitor().handle(), 0, ZMQ_POLLIN, 0}};
+                               {impl.gate.monitors().at(0).handle(), 0, ZMQ_POLLIN, 0}};
     const auto left = std::max(
         std::chrono::milliseconds(0),
         std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()));

@@ -113,6 +113,10 @@ class Runtime {
     // lockstep waits for the run's own processes only: another subscriber (`iapsim echo`) never holds it
     for (const auto& p : scenario.processes) options.members.push_back(p.name);
     options.bind_endpoint = scenario.bus.endpoints.at(self.name);
+    if (const auto it = scenario.bus.observer_endpoints.find(self.name);
+        it != scenario.bus.observer_endpoints.end()) {
+      options.observer_endpoint = it->second;
+    }
     for (const auto& [name, endpoint] : scenario.bus.endpoints) {
       if (name != self.name) options.peer_endpoints.push_back(endpoint);
     }
@@ -465,6 +469,23 @@ struct Arguments {
 };
 
 }  // namespace
+
+BusOptions ObserverBusOptions(const Scenario& scenario, const std::string& node_name,
+                              const std::string& secret) {
+  BusOptions options;
+  options.node_name = node_name;
+  options.bind_endpoint = "ipc://@" + node_name;
+  for (const auto& [name, endpoint] : scenario.bus.endpoints) {
+    const auto observer_endpoint = scenario.bus.observer_endpoints.find(name);
+    options.peer_endpoints.push_back(
+        observer_endpoint != scenario.bus.observer_endpoints.end() ? observer_endpoint->second : endpoint);
+  }
+  options.drop_policy = DropPolicy::kDropNewest;
+  options.observer = true;
+  options.message_limits = scenario.bus.message_limits;
+  options.secret = secret;
+  return options;
+}
 
 CpuTime ProcessCpuTime() {
   rusage usage{};

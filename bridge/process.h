@@ -58,6 +58,13 @@ struct CpuTime {
 };
 CpuTime ProcessCpuTime();
 
+/// Bus options for a program that watches a run without being one of its processes (`iapsim echo`,
+/// `iapsim topics`): it binds an ipc endpoint of its own and reads every process best effort, at its
+/// observer endpoint (ZeroMQ) or at its endpoint (shared memory, which tells observers apart by name), with
+/// the run's secret and size limits. It never holds the run, however slowly it reads.
+BusOptions ObserverBusOptions(const Scenario& scenario, const std::string& node_name,
+                              const std::string& secret);
+
 /// Builds the process from its params (reading every key it knows; unknown keys are rejected after).
 /// Must not touch the bus: it also runs for `--check`.
 using ProcessFactory =

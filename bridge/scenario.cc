@@ -311,6 +311,10 @@ Scenario Load(const std::string& path, const std::vector<std::string>& overrides
   bus.Optional("control_endpoint", &s.bus.control_endpoint);
   YamlMap endpoints = bus.Map("endpoints");
   for (const auto& process : endpoints.Keys()) endpoints.Required(process, &s.bus.endpoints[process]);
+  YamlMap observer_endpoints = bus.Map("observer_endpoints");
+  for (const auto& process : observer_endpoints.Keys()) {
+    observer_endpoints.Required(process, &s.bus.observer_endpoints[process]);
+  }
   bus.Finish();
 
   YamlMap recording = top.Map("recording");
@@ -436,28 +440,45 @@ std::vector<int> FreeTcpPorts(size_t count) {
 
 void AssignEndpoints(Scenario* scenario, const std::string& run_id) {
   YAML::Node bus = scenario->resolved["bus"];
-  YAML::Node endpoints(YAML::NodeType::Map);
+  YAML::Node endpoints(YAML::NodeType::Map), observer_endpoints(YAML::NodeType::Map);
   const std::string& transport = scenario->bus.transport;
+  const size_t n = scenario->processes.size();
+  // tcp: the processes' ports, then their observer ports
   std::vector<int> ports;
-  for (size_t i = 0; transport == "tcp" && i < scenario->processes.size(); ++i) {
+  for (size_t i = 0; transport == "tcp" && i < 2 * n; ++i) {
     ports.push_back(scenario->bus.tcp_base_port + static_cast<int>(i));
   }
-  if (transport == "tcp" && scenario->bus.tcp_base_port == 0)
-    ports = FreeTcpPorts(scenario->processes.size());
+  if (transport == "tcp" && scenario->bus.tcp_base_port == 0) ports = FreeTcpPorts(2 * n);
+  if (!ports.empty() && ports.back() > 65535) {
+    throw std::runtime_error("bus.tcp_base_port " + std::to_string(scenario->bus.tcp_base_port) + ": " +
+                             std::to_string(2 * n) +
+                             " ports from it (a publisher and an observer port per "
+                             "process) go beyond 65535");
+  }
   size_t index = 0;
   for (const auto& p : scenario->processes) {
     // shm and ipc name abstract unix sockets: no files left behind, no path-length limit from a deep run
     // directory
+    const std::string name = "iapsim-" + run_id + "-" + p.name;
     const std::string endpoint = transport == "tcp"   ? "tcp://127.0.0.1:" + std::to_string(ports[index])
-                                 : transport == "shm" ? "shm://iapsim-" + run_id + "-" + p.name
-                                                      : "ipc://@iapsim-" + run_id + "-" + p.name;
+                                 : transport == "shm" ? "shm://" + name
+                                                      : "ipc://@" + name;
     scenario->bus.endpoints[p.name] = endpoint;
     endpoints[p.name] = endpoint;
+    // shared memory tells observers apart by name (bridge/bus.h)
+    if (transport != "shm") {
+      const std::string observer_endpoint = transport == "tcp"
+                                                ? "tcp://127.0.0.1:" + std::to_string(ports[n + index])
+                                                : "ipc://@" + name + "-observers";
+      scenario->bus.observer_endpoints[p.name] = observer_endpoint;
+      observer_endpoints[p.name] = observer_endpoint;
+    }
     ++index;
   }
   scenario->bus.control_endpoint = "ipc://@iapsim-" + run_id + "-launcher";
   bus["control_endpoint"] = scenario->bus.control_endpoint;
   bus["endpoints"] = endpoints;
+  if (transport != "shm") bus["observer_endpoints"] = observer_endpoints;
 }
 
 StepSchedule::StepSchedule(const Scenario& scenario) {

@@ -45,7 +45,9 @@ struct BusConfig {
   MessageSizeLimits message_limits;
   // written by the launcher into scenario.resolved.yaml, so a process restarts from that file alone
   std::map<std::string, std::string> endpoints;  // process -> its publisher endpoint
-  std::string control_endpoint;                  // the launcher's control socket
+  // ipc, tcp: process -> its publisher endpoint for subscribers that are not of the run (`iapsim echo`)
+  std::map<std::string, std::string> observer_endpoints;
+  std::string control_endpoint;  // the launcher's control socket
 };
 
 /// The name of the process the launcher adds when recording.enabled is true.

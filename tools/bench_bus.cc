@@ -35,7 +35,6 @@ int64_t NowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
 }
 
-
 struct Endpoints {
   std::string parent, child;
   std::string secret;  // "+curve": the ZeroMQ connections authenticate and encrypt as a run's do
@@ -65,6 +64,9 @@ Bus MakeBusFor(const std::string& name, const std::string& bind, const std::stri
   options.bind_endpoint = bind;
   options.peer_endpoints = {peer};
   options.secret = secret;
+  // a ZeroMQ publisher of a run also serves observers (bridge/bus.h): measured with it, idle as in most runs
+  if (bind.rfind("tcp://", 0) == 0) options.observer_endpoint = "tcp://127.0.0.1:*";
+  if (bind.rfind("ipc://", 0) == 0) options.observer_endpoint = bind + "-observers";
   return Bus(options);
 }
 

@@ -17,6 +17,7 @@
 #include "bridge/launcher.h"
 #include "bridge/message_format.h"
 #include "bridge/message_registry.h"
+#include "bridge/process.h"
 #include "bridge/run_secret.h"
 #include "bridge/scenario.h"
 #include "model/urdf.h"
@@ -125,14 +126,9 @@ std::unique_ptr<Bus> InspectorBus(const std::string& run_dir) {
     throw std::runtime_error("no run in '" + run_dir + "' (" + resolved + " not found); pass --run DIR");
   }
   const Scenario scenario = LoadScenario(resolved);
-  BusOptions options;
-  options.node_name = "iapsim-cli-" + std::to_string(getpid());
-  options.bind_endpoint = "ipc://@" + options.node_name;
-  for (const auto& [name, endpoint] : scenario.bus.endpoints) options.peer_endpoints.push_back(endpoint);
-  options.drop_policy = DropPolicy::kDropNewest;
-  options.message_limits = scenario.bus.message_limits;
-  options.secret = ReadRunSecret(run_dir);  // RUN/secret: readable by the user who started the run
-  return std::make_unique<Bus>(options);
+  // RUN/secret: readable by the user who started the run
+  return std::make_unique<Bus>(
+      ObserverBusOptions(scenario, "iapsim-cli-" + std::to_string(getpid()), ReadRunSecret(run_dir)));
 }
 
 double Seconds(int64_t ns) { return static_cast<double>(ns) * 1e-9; }

@@ -26,12 +26,24 @@ std::string Z85(const uint8_t key[32]) {
   return text;
 }
 
+// the public key (Z85) of a Z85 secret key, and its 32 bytes in `raw` if given
+std::string PublicKey(const std::string& secret_z85, std::string* raw) {
+  char text[41];
+  if (zmq_curve_public(text, secret_z85.c_str()) != 0) {
+    throw std::invalid_argument("CURVE is not available in this libzmq");
+  }
+  if (raw) {
+    uint8_t bytes[32];
+    zmq_z85_decode(bytes, text);
+    raw->assign(reinterpret_cast<const char*>(bytes), 32);
+  }
+  return text;
+}
+
 }  // namespace
 
 ZapGate::ZapGate(zmq::context_t& context, Check check)
-    : zap_(context, zmq::socket_type::rep),
-      monitor_(context, zmq::socket_type::pair),
-      check_(std::move(check)) {
+    : context_(context), zap_(context, zmq::socket_type::rep), check_(std::move(check)) {
   zap_.set(zmq::sockopt::linger, 0);
   zap_.bind(kZapEndpoint);
 }
@@ -45,7 +57,7 @@ void ZapGate::Watch(zmq::socket_t& socket) {
                              ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) != 0) {
     throw std::runtime_error(std::string("cannot monitor a socket: ") + zmq_strerror(zmq_errno()));
   }
-  monitor_.connect(endpoint);
+  monitors_.emplace_back(context_, zmq::socket_type::pair).connect(endpoint);
 }
 
 void ZapGate::Serve() {
@@ -55,7 +67,8 @@ void ZapGate::Serve() {
     // version, request id, domain, address, routing id, mechanism, credentials...
     std::string refusal = "a malformed authentication request";
     if (request.size() >= 6) {
-      refusal = check_(request[5], std::vector<std::string>(request.begin() + 6, request.end()));
+      refusal = check_(ZapRequest{request[2], request[3], request[5],
+                                  std::vector<std::string>(request.begin() + 6, request.end())});
       if (!refusal.empty() && !request[3].empty()) refusal += " (from " + request[3] + ")";
     }
     if (!refusal.empty()) Describe(refusal);
@@ -70,16 +83,18 @@ void ZapGate::Serve() {
                 i + 1 < std::size(reply) ? zmq::send_flags::sndmore : zmq::send_flags::none);
     }
   }
-  while (true) {
-    const std::vector<std::string> event = ReadFrames(monitor_);
-    if (event.empty()) break;
-    if (event[0].size() < 2) continue;
-    uint16_t id;
-    std::memcpy(&id, event[0].data(), 2);
-    ++refused_;
-    // a refused check was described by Serve; the others never reached it
-    if (id != ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) {
-      Describe("a peer without credentials (another security mechanism, or a broken handshake)");
+  for (zmq::socket_t& monitor : monitors_) {
+    while (true) {
+      const std::vector<std::string> event = ReadFrames(monitor);
+      if (event.empty()) break;
+      if (event[0].size() < 2) continue;
+      uint16_t id;
+      std::memcpy(&id, event[0].data(), 2);
+      ++refused_;
+      // a refused check was described by Serve; the others never reached it
+      if (id != ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) {
+        Describe("a peer without credentials (another security mechanism, or a broken handshake)");
+      }
     }
   }
 }
@@ -98,25 +113,20 @@ CurveKeys RunCurveKeys(const std::string& secret) {
   if (secret.size() != 64 || secret.find_first_not_of("0123456789abcdef") != std::string::npos) {
     throw std::invalid_argument("the run's secret is not 64 hex digits");
   }
-  uint8_t server_secret[32], client_secret[32];
+  uint8_t server_secret[32], client_secret[32], observer_secret[32];
   for (size_t i = 0; i < 32; ++i) {
     server_secret[i] = static_cast<uint8_t>(std::stoi(secret.substr(2 * i, 2), nullptr, 16));
-    // another key from the same random bytes: uniform still, and unknown without the secret
+    // other keys from the same random bytes: uniform still, and unknown without the secret
     client_secret[i] = server_secret[i] ^ 0x5c;
+    observer_secret[i] = server_secret[i] ^ 0x36;
   }
   CurveKeys keys;
   keys.server_secret = Z85(server_secret);
   keys.client_secret = Z85(client_secret);
-  char public_text[41];
-  if (zmq_curve_public(public_text, keys.server_secret.c_str()) != 0) {
-    throw std::invalid_argument("CURVE is not available in this libzmq");
-  }
-  keys.server_public = public_text;
-  zmq_curve_public(public_text, keys.client_secret.c_str());
-  keys.client_public = public_text;
-  uint8_t raw[32];
-  zmq_z85_decode(raw, keys.client_public.c_str());
-  keys.client_public_raw.assign(reinterpret_cast<const char*>(raw), 32);
+  keys.observer_secret = Z85(observer_secret);
+  keys.server_public = PublicKey(keys.server_secret, nullptr);
+  keys.client_public = PublicKey(keys.client_secret, &keys.client_public_raw);
+  keys.observer_public = PublicKey(keys.observer_secret, &keys.observer_public_raw);
   return keys;
 }
 

@@ -13,12 +13,18 @@
 
 namespace iapsim::bridge::internal {
 
+/// What a peer presents at its handshake.
+struct ZapRequest {
+  std::string domain;   // the server socket's ZAP domain
+  std::string address;  // the peer's (tcp: its IP address; ipc: empty)
+  std::string mechanism;
+  std::vector<std::string> credentials;  // PLAIN's user name and password, or CURVE's 32-byte public key
+};
+
 class ZapGate {
  public:
-  /// Returns "" to accept a peer, else why it is refused. `credentials`: PLAIN's user name and password, or
-  /// CURVE's 32-byte public key.
-  using Check =
-      std::function<std::string(const std::string& mechanism, const std::vector<std::string>& credentials)>;
+  /// Returns "" to accept a peer, else why it is refused.
+  using Check = std::function<std::string(const ZapRequest& request)>;
 
   /// Binds the context's ZAP endpoint: make it before any socket of `context` binds or connects.
   ZapGate(zmq::context_t& context, Check check);
@@ -26,9 +32,10 @@ class ZapGate {
   void Watch(zmq::socket_t& socket);
   /// Answers the requests and reads the events that are waiting; never blocks.
   void Serve();
-  /// Sockets to poll for, so that a waiting thread can Serve at once.
+  /// Sockets to poll for, so that a waiting thread can Serve at once: the ZAP endpoint, and a monitor per
+  /// watched socket.
   zmq::socket_t& zap() { return zap_; }
-  zmq::socket_t& monitor() { return monitor_; }
+  std::vector<zmq::socket_t>& monitors() { return monitors_; }
 
   uint64_t refused() const { return refused_; }
   /// What was refused since the last call, each kind once over the gate's life (a refused peer retries every
@@ -38,8 +45,9 @@ class ZapGate {
  private:
   void Describe(const std::string& refusal);
 
+  zmq::context_t& context_;
   zmq::socket_t zap_;
-  zmq::socket_t monitor_;
+  std::vector<zmq::socket_t> monitors_;  // PAIR sockets: one per watched socket
   Check check_;
   uint64_t refused_ = 0;
   std::vector<std::string> refusals_;
@@ -47,11 +55,12 @@ class ZapGate {
 };
 
 /// The CURVE keys of a run (Z85 text), all derived from its secret (bridge/run_secret.h): the run's
-/// publishers share one server key pair, its subscribers one client key pair. Only a holder of the secret can
-/// complete a handshake, and the traffic is encrypted.
+/// publishers share one server key pair, its processes' subscribers one client key pair, and subscribers
+/// that are not of the run (`iapsim echo`) another. Only a holder of the secret can complete a handshake,
+/// and the traffic is encrypted.
 struct CurveKeys {
-  std::string server_public, server_secret, client_public, client_secret;
-  std::string client_public_raw;  // 32 bytes, as a ZAP request carries it
+  std::string server_public, server_secret, client_public, client_secret, observer_public, observer_secret;
+  std::string client_public_raw, observer_public_raw;  // 32 bytes, as a ZAP request carries them
 };
 /// Throws std::invalid_argument unless `secret` is 64 hex digits.
 CurveKeys RunCurveKeys(const std::string& secret);

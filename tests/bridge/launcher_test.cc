@@ -26,6 +26,7 @@
 #include "bridge/control_channel.h"
 #include "bridge/message_registry.h"
 #include "bridge/message_schema.h"
+#include "bridge/process.h"
 
 namespace iapsim::bridge {
 namespace {
@@ -780,6 +781,49 @@ TEST_F(LauncherTest, IntrudersOnTheBusAreRefusedOrDroppedAndTheRunGoesOn) {
   EXPECT_NE(log.find("that did not send the run's secret"), std::string::npos) << log;
   EXPECT_NE(log.find("dropped subscriber 'stalled'"), std::string::npos) << log;
   if (other_user_tried) EXPECT_NE(log.find("runs as another user (uid 65534)"), std::string::npos) << log;
+}
+
+// On the ZeroMQ transports a blocking publisher waits for every subscriber of its socket, so watchers have
+// a socket of their own: `iapsim echo`'s options (ObserverBusOptions) reach it, and an observer that reads
+// and then stops never holds a lockstep run, however small the queues. An observer at a process's own
+// endpoint is refused.
+TEST_F(LauncherTest, AStalledObserverNeverHoldsAZeroMqRun) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(10.0));
+  for (const std::string transport : {"ipc", "tcp"}) {
+    SCOPED_TRACE(transport);
+    ASSERT_GT(
+        StartInBackground(scenario, {"bus.transport=" + transport, "bus.send_hwm=50", "bus.receive_hwm=50"},
+                          "physics"),
+        0);
+    const Scenario resolved = LoadScenario((dir_ / "run" / "scenario.resolved.yaml").string());
+    ASSERT_EQ(resolved.bus.observer_endpoints.size(), resolved.bus.endpoints.size());
+    uint64_t read = 0, misplaced = 0;
+    Bus stalled(ObserverBusOptions(resolved, "stalled-" + transport, BackgroundSecret()));
+    stalled.SubscribeRaw("", [&](const uint8_t*, size_t, const MessageInfo&) { ++read; });
+    BusOptions at_member = ObserverBusOptions(resolved, "misplaced-" + transport, BackgroundSecret());
+    at_member.peer_endpoints = {resolved.bus.endpoints.at("physics")};
+    Bus misplaced_bus(at_member);
+    misplaced_bus.SubscribeRaw("", [&](const uint8_t*, size_t, const MessageInfo&) { ++misplaced; });
+    const auto start = std::chrono::steady_clock::now();
+    while (read < 100 && std::chrono::steady_clock::now() - start < std::chrono::seconds(10)) {
+      stalled.Spin(std::chrono::milliseconds(5));
+      misplaced_bus.Spin(std::chrono::milliseconds(0));
+    }
+    // neither reads again until the run has ended
+    const LaunchResult result = WaitForBackgroundRun();
+    ASSERT_EQ(result.exit_code, 0) << result.message;
+    EXPECT_GE(read, 100u);
+    EXPECT_EQ(misplaced, 0u);
+    const auto metrics = Metrics(result);
+    EXPECT_DOUBLE_EQ(metrics["sim_time_s"].get<double>(), 10.0);
+    EXPECT_EQ(metrics["messages_lost"], 0);
+    EXPECT_GE(metrics["processes"]["physics"]["bus"]["refused_peers"].get<uint64_t>(), 1u);
+    const std::string log = FileBytes(result.run_dir + "/logs/physics.log");
+    EXPECT_NE(log.find("an observer joined"), std::string::npos) << log;
+    EXPECT_NE(log.find("refused an observer at a run process's endpoint"), std::string::npos) << log;
+    fs::remove_all(dir_ / "run");
+    background_done_ = false;
+  }
 }
 
 // Over tcp the run's connections use CURVE with keys from its secret: a subscriber without them reads
