@@ -7,7 +7,7 @@ set -euo pipefail
 source "$(dirname "$0")/support/script.sh"
 
 # every subcommand answers --help
-for cmd in run replay info "bag reindex" export video topics echo urdf bench "rl eval" "rl collect"; do
+for cmd in run replay info "bag reindex" export video topics echo urdf bench sweep "rl eval" "rl collect"; do
   # shellcheck disable=SC2086  # "rl eval" is a subcommand and its subcommand
   "$iapsim" $cmd --help > /dev/null || fail "$cmd --help"
 done

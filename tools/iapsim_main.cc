@@ -13,6 +13,7 @@
 #include "bridge/cli_usage.h"
 #include "bridge/launcher.h"
 #include "tools/commands.h"
+#include "tools/sweep.h"
 
 namespace {
 
@@ -86,12 +87,16 @@ int main(int argc, char** argv) {
 
   std::string evaluate_run;
   auto* evaluate_cmd = app.add_subcommand("evaluate", "recompute a run's tracking metrics and plots");
-  evaluate_cmd->add_option("run_dir", evaluate_run, "run directory")->required()->check(CLI::ExistingDirectory);
+  evaluate_cmd->add_option("run_dir", evaluate_run, "run directory")
+      ->required()
+      ->check(CLI::ExistingDirectory);
 
   RegressArgs regress;
   auto* regress_cmd = app.add_subcommand(
-      "regress", "run the regression flights of a suite, compare with its thresholds, exit 1 on a regression");
-  regress_cmd->add_option("suite_dir", regress.suite_dir, "folder with suite.yaml (default configs/regression)")
+      "regress",
+      "run the regression flights of a suite, compare with its thresholds, exit 1 on a regression");
+  regress_cmd
+      ->add_option("suite_dir", regress.suite_dir, "folder with suite.yaml (default configs/regression)")
       ->check(CLI::ExistingDirectory);
   regress_cmd->add_option("--out", regress.out_dir, "where the runs go (default runs/regress-<UTC time>)");
   regress_cmd->add_option("--only", regress.only, "run only these flights (repeatable)");
@@ -147,6 +152,23 @@ int main(int argc, char** argv) {
   topics_cmd->add_option("--run", topics.run_dir, "run directory of the running graph (default runs/latest)");
   topics_cmd->add_option("--listen", topics.listen_s, "seconds to listen");
 
+  SweepArgs sweep;
+  auto* sweep_cmd = app.add_subcommand(
+      "sweep",
+      "run a scenario over a grid or random draws of its keys and over seeds, N runs at a time, and "
+      "tabulate their metrics (exit 1 if a run failed)");
+  sweep_cmd->add_option("sweep", sweep.file, "sweep YAML (tools/sweep.h, README)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sweep_cmd->add_option("--out", sweep.out_dir,
+                        "where the runs and tables go (default sweeps/<name>-<UTC time>)");
+  sweep_cmd->add_option("--jobs,-j", sweep.jobs, "runs at a time (default: the sweep's jobs, else the cores)")
+      ->check(CLI::Range(1, 1024));
+  sweep_cmd->add_flag("--resume", sweep.resume, "go on with the sweep in --out: skip its finished runs");
+  sweep_cmd->add_flag("--list", sweep.list, "print the runs (ids and settings) and exit");
+  sweep_cmd->add_option("--set", sweep.overrides,
+                        "override a scenario key in every run: KEY=VALUE (repeatable)");
+
   LiveArgs echo;
   auto* echo_cmd = app.add_subcommand("echo", "print the messages of a topic of a running graph as YAML");
   echo_cmd->add_option("topic", echo.topic, "topic")->required();
@@ -194,6 +216,7 @@ int main(int argc, char** argv) {
     if (*replay_cmd) return Replay(replay);
     if (*evaluate_cmd) return Evaluate(evaluate_run);
     if (*regress_cmd) return Regress(regress);
+    if (*sweep_cmd) return Sweep(sweep);
     if (*info_cmd) return Info(info_bag);
     if (*reindex_cmd) return Reindex(reindex);
     if (*export_cmd) return Export(exp);

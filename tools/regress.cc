@@ -19,6 +19,7 @@
 #include "bridge/config.h"
 #include "bridge/launcher.h"
 #include "bridge/scenario.h"
+#include "tools/batch.h"
 #include "tools/commands.h"
 #include "tools/plot_script.h"
 #include "tools/run_evaluation.h"
@@ -129,20 +130,6 @@ std::vector<Bound> ReadBounds(bridge::YamlMap& map) {
   return bounds;
 }
 
-// `set: {dotted.key: value, ...}` as --set assignments, each value written as one line of flow YAML.
-std::vector<std::string> ReadOverrides(bridge::YamlMap& map) {
-  std::vector<std::string> overrides;
-  if (!map.Has("set")) return overrides;
-  const YAML::Node set = map.Raw("set");
-  if (!set.IsMap()) map.Fail("set", "expected a map of scenario keys (dotted, as --set) to values");
-  for (const auto& entry : set) {
-    YAML::Emitter value;
-    value << YAML::Flow << entry.second;
-    overrides.push_back(entry.first.Scalar() + "=" + value.c_str());
-  }
-  return overrides;
-}
-
 Suite ReadSuite(const std::string& suite_dir) {
   const std::string path = suite_dir + "/suite.yaml";
   const YAML::Node root = bridge::LoadYamlFile(path);
@@ -173,7 +160,7 @@ Suite ReadSuite(const std::string& suite_dir) {
   }
   flights.Finish();
   bridge::YamlMap monte_carlo = top.Map("monte_carlo");
-  suite.monte_carlo_overrides = ReadOverrides(monte_carlo);
+  suite.monte_carlo_overrides = ReadSetOverrides(monte_carlo);
   monte_carlo.Finish();
   top.Finish();
   if (suite.flights.empty()) top.Fail("flights", "the suite has no flights");
@@ -241,40 +228,6 @@ bool Check(const std::string& flight, const std::string& metric, double value, c
               std::isnan(bound.max) ? "min" : "max", limit, ok ? "ok" : "REGRESSION");
   (*checks)[metric] = {{"value", value}, {std::isnan(bound.max) ? "min" : "max", limit}, {"ok", ok}};
   return ok;
-}
-
-// Percentile p (0..100) of sorted values, interpolated linearly between order statistics (numpy's default,
-// Hyndman and Fan's type 7), as the band plot computes it.
-double Percentile(const std::vector<double>& sorted, double p) {
-  const double h = (sorted.size() - 1) * p / 100.0;
-  const size_t below = static_cast<size_t>(std::floor(h));
-  const size_t above = std::min(below + 1, sorted.size() - 1);
-  return sorted[below] + (h - below) * (sorted[above] - sorted[below]);
-}
-
-// Every number of the draws' metrics as {p5, p50, p95, mean, min, max} over the draws that have it.
-nlohmann::json Statistics(const std::vector<nlohmann::json>& draws) {
-  std::map<std::string, std::vector<double>> values;  // by JSON pointer
-  for (const nlohmann::json& metrics : draws) {
-    const nlohmann::json flat = metrics.flatten();  // items() of a temporary would outlive it
-    for (const auto& [pointer, value] : flat.items()) {
-      if (value.is_number()) values[pointer].push_back(value.get<double>());
-    }
-  }
-  nlohmann::json flat = nlohmann::json::object();
-  for (auto& [pointer, samples] : values) {
-    std::sort(samples.begin(), samples.end());
-    double sum = 0.0;
-    for (double v : samples) sum += v;
-    flat[pointer + "/p5"] = Percentile(samples, 5.0);
-    flat[pointer + "/p50"] = Percentile(samples, 50.0);
-    flat[pointer + "/p95"] = Percentile(samples, 95.0);
-    flat[pointer + "/mean"] = sum / samples.size();
-    flat[pointer + "/min"] = samples.front();
-    flat[pointer + "/max"] = samples.back();
-    flat[pointer + "/draws"] = samples.size();
-  }
-  return flat.unflatten();
 }
 
 std::vector<Flight> Selected(const std::vector<Flight>& flights, const std::vector<std::string>& only) {
@@ -392,7 +345,7 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
     entry["draws"] = draws;
     for (int seed = 1; seed <= draws; ++seed) entry["seeds"].push_back(seed);
     if (metrics.empty()) continue;
-    const nlohmann::json statistics = Statistics(metrics);
+    const nlohmann::json statistics = MetricStatistics(metrics);
     for (const auto& [analysis, section] : statistics.items()) entry[analysis] = section;
     if (!task.empty()) {  // a draw that failed to fly did not do its task
       const double rate = static_cast<double>(task_successes) / draws;

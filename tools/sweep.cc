@@ -1,0 +1,718 @@
+#include "tools/sweep.h"
+
+#include <fcntl.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "bridge/config.h"
+#include "bridge/launcher.h"
+#include "bridge/scenario.h"
+#include "tools/batch.h"
+
+namespace iapsim::tools {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+// FNV-1a, 64 bits, then MurmurHash3's finaliser so that every input bit reaches the 48 kept: a run's id only
+// has to be stable and tell a sweep's runs apart (1,000 runs collide with odds of 2e-9 in 48 bits)
+std::string Hash48(const std::string& text) {
+  uint64_t h = 14695981039346656037ull;
+  for (const unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  h ^= h >> 33;
+  h *= 0xff51afd7ed558ccdull;
+  h ^= h >> 33;
+  h *= 0xc4ceb9fe1a85ec53ull;
+  h ^= h >> 33;
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return std::string(hex + 4);
+}
+
+std::string FlowYaml(const YAML::Node& node) {
+  if (node.IsScalar()) return node.Scalar();
+  YAML::Emitter out;
+  out << YAML::Flow << node;
+  return out.c_str();
+}
+
+std::string FormatNumber(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9g", value);
+  return text;
+}
+
+// "tracking.position_rmse_m.z" or "/tracking/position_rmse_m/z" -> the JSON pointer
+std::string MetricPointer(const std::string& metric) {
+  if (!metric.empty() && metric[0] == '/') return metric;
+  std::string pointer = "/" + metric;
+  std::replace(pointer.begin(), pointer.end(), '.', '/');
+  return pointer;
+}
+
+void ReadRandom(bridge::YamlMap& top, SweepSpec* spec) {
+  if (!top.Has("random")) return;
+  bridge::YamlMap random = top.Map("random");
+  random.Required("draws", &spec->draws);
+  if (spec->draws < 1 || spec->draws > 100000) random.Fail("draws", "must be in [1, 100000]");
+  random.Optional("seed", &spec->random_seed);
+  bridge::YamlMap keys = random.Map("keys");
+  for (const std::string& key : keys.Keys()) {
+    bridge::YamlMap law = keys.Map(key);
+    SweepRandomKey draw{key, "", {}, {}};
+    for (const char* name : {"uniform", "normal", "choice"}) {
+      if (!law.Has(name)) continue;
+      if (!draw.distribution.empty())
+        law.Fail(name, "one distribution per key: " + draw.distribution + " or " + name);
+      draw.distribution = name;
+    }
+    if (draw.distribution.empty())
+      keys.Fail(key, "expected {uniform: [lo, hi]}, {normal: [mean, sigma]} or {choice: [...]}");
+    if (draw.distribution == "choice") {
+      const YAML::Node choices = law.Raw("choice");
+      if (!choices.IsSequence() || choices.size() == 0)
+        law.Fail("choice", "expected a non-empty list of values");
+      for (const auto& choice : choices) draw.choices.push_back(FlowYaml(choice));
+    } else {
+      draw.parameters = bridge::ReadNumberList(law, draw.distribution, {2});
+      if (draw.distribution == "uniform" && !(draw.parameters[0] < draw.parameters[1])) {
+        law.Fail("uniform", "expected [lo, hi] with lo < hi");
+      }
+      if (draw.distribution == "normal" && !(draw.parameters[1] > 0.0)) {
+        law.Fail("normal", "expected [mean, sigma] with sigma > 0");
+      }
+    }
+    law.Finish();
+    spec->random.push_back(draw);
+  }
+  keys.Finish();
+  if (spec->random.empty()) random.Fail("keys", "expected the keys to draw");
+  random.Finish();
+}
+
+// what a run's outcome is called, from `iapsim run`'s exit code (tools/commands.h)
+std::string StatusOf(int exit_code) {
+  switch (exit_code) {
+    case 0:
+      return "completed";
+    case 3:
+      return "completed_with_losses";
+    case 2:
+      return "invalid_configuration";
+    case 130:
+      return "interrupted";
+    default:
+      return "failed";
+  }
+}
+bool Finished(int exit_code) { return exit_code == 0 || exit_code == 3; }
+
+// why a run failed, from the end of its output: `iapsim run`'s own error line if there is one
+std::string ReasonFromLog(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line, last, error;
+  while (std::getline(in, line)) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    last = line;
+    if (line.rfind("iapsim: ", 0) == 0 && line.rfind("iapsim: partial outputs", 0) != 0)
+      error = line.substr(8);
+  }
+  return error.empty() ? last : error;
+}
+
+volatile std::sig_atomic_t interrupted = 0;
+extern "C" void OnSweepInterrupt(int) { interrupted = 1; }
+
+struct Outcome {
+  bool done = false;  // the run was started and ended, in this invocation or an earlier one
+  int exit_code = -1;
+  std::string status = "pending";
+  std::string reason;
+  double wall_s = 0.0;
+  nlohmann::json metrics;  // its metrics.json, when it has one
+};
+
+nlohmann::json OutcomeJson(const SweepRun& run, const Outcome& outcome) {
+  nlohmann::json values = nlohmann::json::object();
+  for (const auto& [key, value] : run.values) values[key] = value;
+  nlohmann::json entry = {{"index", run.index},
+                          {"id", run.id},
+                          {"group", run.group},
+                          {"values", values},
+                          {"overrides", run.overrides},
+                          {"status", outcome.status},
+                          {"exit_code", outcome.exit_code},
+                          {"reason", outcome.reason},
+                          {"wall_s", outcome.wall_s}};
+  entry["seed"] = run.seed ? nlohmann::json(*run.seed) : nlohmann::json();
+  return entry;
+}
+
+// A run's outcome as recorded in RUN/sweep_run.json (an earlier invocation's, for --resume)
+Outcome ReadOutcome(const fs::path& run_dir) {
+  Outcome outcome;
+  std::ifstream in(run_dir / "sweep_run.json");
+  const nlohmann::json entry = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (!entry.is_object() || !entry.contains("exit_code")) return outcome;
+  outcome.done = true;
+  outcome.exit_code = entry["exit_code"].get<int>();
+  outcome.status = entry.value("status", StatusOf(outcome.exit_code));
+  outcome.reason = entry.value("reason", "");
+  outcome.wall_s = entry.value("wall_s", 0.0);
+  std::ifstream metrics(run_dir / "metrics.json");
+  outcome.metrics = nlohmann::json::parse(metrics, nullptr, false);
+  if (outcome.metrics.is_discarded()) outcome.metrics = nlohmann::json();
+  return outcome;
+}
+
+void WriteJsonAtomically(const fs::path& path, const nlohmann::json& json) {
+  const fs::path part = path.string() + ".part";
+  std::ofstream(part) << json.dump(2) << "\n";
+  fs::rename(part, path);
+}
+
+// Starts `iapsim run` for `run` in `run_dir`, its output in run_dir/iapsim.log. The child stops (SIGINT: it
+// ends its graph cleanly) if the sweep dies.
+pid_t StartRun(const SweepSpec& spec, const SweepRun& run, const fs::path& run_dir) {
+  const std::string program = bridge::ExecutableDir() + "/iapsim";
+  std::vector<std::string> args = {program, "run", spec.scenario, "--out", run_dir.string()};
+  for (const std::string& o : run.overrides) {
+    args.push_back("--set");
+    args.push_back(o);
+  }
+  const std::string log = (run_dir / "iapsim.log").string();
+  const pid_t parent = getpid();
+  const pid_t pid = fork();
+  if (pid != 0) return pid;
+  prctl(PR_SET_PDEATHSIG, SIGINT);
+  if (getppid() != parent) _exit(130);
+  const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd >= 0) {
+    dup2(fd, STDOUT_FILENO);
+    dup2(fd, STDERR_FILENO);
+    close(fd);
+  }
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  execv(program.c_str(), argv.data());
+  std::fprintf(stderr, "iapsim: cannot start %s: %s\n", program.c_str(), std::strerror(errno));
+  _exit(127);
+}
+
+std::string Describe(const SweepRun& run) {
+  std::string text;
+  for (const auto& [key, value] : run.values) text += (text.empty() ? "" : " ") + key + "=" + value;
+  if (run.seed) text += (text.empty() ? "" : " ") + std::string("seed=") + std::to_string(*run.seed);
+  return text.empty() ? "(the scenario as it is)" : text;
+}
+
+std::string CsvField(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (const char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+std::string MarkdownField(std::string text) {
+  std::replace(text.begin(), text.end(), '\n', ' ');
+  std::string escaped;
+  for (const char c : text) escaped += c == '|' ? std::string("\\|") : std::string(1, c);
+  return escaped;
+}
+
+// numbers of metrics.json that repeat the run's settings
+const std::set<std::string> kSettings = {"/seed", "/duration_s", "/clock_step_s"};
+
+// The metric columns: those the sweep names, else every number the finished runs report outside the
+// per-process and loss counters and the settings, in order of first appearance.
+std::vector<std::string> MetricColumns(const SweepSpec& spec, const std::vector<Outcome>& outcomes) {
+  if (!spec.metrics.empty()) return spec.metrics;
+  std::vector<std::string> columns;
+  std::set<std::string> seen;
+  for (const Outcome& outcome : outcomes) {
+    if (!outcome.metrics.is_object()) continue;
+    const nlohmann::json flat = outcome.metrics.flatten();  // items() of a temporary would outlive it
+    for (const auto& [pointer, value] : flat.items()) {
+      if (!value.is_number() || pointer.rfind("/processes/", 0) == 0 || pointer.rfind("/losses/", 0) == 0 ||
+          kSettings.count(pointer) > 0) {
+        continue;
+      }
+      if (seen.insert(pointer).second) columns.push_back(pointer);
+    }
+  }
+  return columns;
+}
+
+std::optional<double> MetricValue(const Outcome& outcome, const std::string& pointer) {
+  if (!outcome.metrics.is_object()) return std::nullopt;
+  const nlohmann::json::json_pointer p(pointer);
+  if (!outcome.metrics.contains(p) || !outcome.metrics[p].is_number()) return std::nullopt;
+  return outcome.metrics[p].get<double>();
+}
+
+std::string ColumnName(const std::string& pointer) {
+  std::string name = pointer.substr(1);
+  std::replace(name.begin(), name.end(), '/', '.');
+  return name;
+}
+
+std::vector<std::string> SweptKeys(const SweepSpec& spec) {
+  std::vector<std::string> keys;
+  for (const auto& [key, values] : spec.grid) keys.push_back(key);
+  for (const SweepRandomKey& r : spec.random) keys.push_back(r.key);
+  return keys;
+}
+
+std::string ValueOf(const SweepRun& run, const std::string& key) {
+  for (const auto& [k, v] : run.values) {
+    if (k == key) return v;
+  }
+  return "";
+}
+
+// DIR/results.csv and .md: a row per run
+void WriteResults(const fs::path& dir, const SweepSpec& spec, const std::vector<SweepRun>& runs,
+                  const std::vector<Outcome>& outcomes, const std::vector<std::string>& metrics) {
+  const std::vector<std::string> keys = SweptKeys(spec);
+  std::ofstream csv(dir / "results.csv"), md(dir / "results.md");
+  std::vector<std::string> header = {"id", "group"};
+  header.insert(header.end(), keys.begin(), keys.end());
+  for (const char* c : {"seed", "status", "exit_code", "wall_s"}) header.push_back(c);
+  for (const std::string& m : metrics) header.push_back(ColumnName(m));
+  header.push_back("reason");
+  for (size_t i = 0; i < header.size(); ++i) {
+    csv << (i ? "," : "") << CsvField(header[i]);
+    md << "| " << MarkdownField(header[i]) << " ";
+  }
+  csv << "\n";
+  md << "|\n";
+  for (size_t i = 0; i < header.size(); ++i) md << "|---";
+  md << "|\n";
+  for (size_t r = 0; r < runs.size(); ++r) {
+    const SweepRun& run = runs[r];
+    const Outcome& o = outcomes[r];
+    std::vector<std::string> csv_row = {run.id, run.group}, md_row;
+    for (const std::string& key : keys) csv_row.push_back(ValueOf(run, key));
+    // a sweep without seeds: the scenario's, as the run reports it
+    const auto seed =
+        run.seed ? std::optional<double>(static_cast<double>(*run.seed)) : MetricValue(o, "/seed");
+    csv_row.push_back(seed ? FormatNumber(*seed) : "");
+    csv_row.push_back(o.status);
+    csv_row.push_back(o.done ? std::to_string(o.exit_code) : "");
+    char wall[32] = "";
+    if (o.done) std::snprintf(wall, sizeof wall, "%.2f", o.wall_s);
+    csv_row.push_back(wall);
+    md_row = csv_row;
+    for (const std::string& m : metrics) {
+      const auto value = MetricValue(o, m);
+      csv_row.push_back(value ? FormatNumber(*value) : "");
+      char text[32] = "";
+      if (value) std::snprintf(text, sizeof text, "%.4g", *value);
+      md_row.push_back(text);
+    }
+    csv_row.push_back(o.reason);
+    md_row.push_back(o.reason);
+    for (size_t i = 0; i < csv_row.size(); ++i) {
+      csv << (i ? "," : "") << CsvField(csv_row[i]);
+      md << "| " << MarkdownField(md_row[i]) << " ";
+    }
+    csv << "\n";
+    md << "|\n";
+  }
+}
+
+// DIR/summary.csv and .md: a row per group (the runs that differ only by seed), each metric's mean, p50 and
+// p95 over the group's finished runs, and its failures with their reasons
+void WriteSummary(const fs::path& dir, const SweepSpec& spec, const std::vector<SweepRun>& runs,
+                  const std::vector<Outcome>& outcomes, const std::vector<std::string>& metrics) {
+  const std::vector<std::string> keys = SweptKeys(spec);
+  std::vector<std::string> groups;
+  std::map<std::string, std::vector<size_t>> members;
+  for (size_t r = 0; r < runs.size(); ++r) {
+    if (members[runs[r].group].empty()) groups.push_back(runs[r].group);
+    members[runs[r].group].push_back(r);
+  }
+  std::ofstream csv(dir / "summary.csv"), md(dir / "summary.md");
+  csv << "group";
+  for (const std::string& key : keys) csv << "," << CsvField(key);
+  csv << ",runs,finished,failed";
+  for (const std::string& m : metrics) {
+    for (const char* stat : {"mean", "p50", "p95"}) csv << "," << CsvField(ColumnName(m) + "." + stat);
+  }
+  csv << "\n";
+  md << "# Sweep " << spec.name << "\n\n"
+     << runs.size() << " runs of `" << spec.scenario << "` in " << groups.size()
+     << " groups (a group: the runs that differ only by seed). Each metric: mean, p50 and "
+     << "p95 over a group's finished runs.\n";
+  std::map<std::string, std::map<std::string, std::vector<double>>> values;  // group -> metric -> sorted
+  for (const std::string& group : groups) {
+    for (const size_t r : members[group]) {
+      if (!Finished(outcomes[r].exit_code) || !outcomes[r].done) continue;
+      for (const std::string& m : metrics) {
+        if (const auto v = MetricValue(outcomes[r], m)) values[group][m].push_back(*v);
+      }
+    }
+    for (auto& [m, v] : values[group]) std::sort(v.begin(), v.end());
+  }
+  for (const std::string& group : groups) {
+    const SweepRun& first = runs[members[group].front()];
+    size_t finished = 0, failed = 0;
+    for (const size_t r : members[group]) {
+      finished += outcomes[r].done && Finished(outcomes[r].exit_code);
+      failed += outcomes[r].done && !Finished(outcomes[r].exit_code);
+    }
+    csv << group;
+    for (const std::string& key : keys) csv << "," << CsvField(ValueOf(first, key));
+    csv << "," << members[group].size() << "," << finished << "," << failed;
+    for (const std::string& m : metrics) {
+      const std::vector<double>& v = values[group][m];
+      double sum = 0.0;
+      for (const double x : v) sum += x;
+      for (const double stat :
+           {v.empty() ? 0.0 : sum / v.size(), v.empty() ? 0.0 : InterpolatedPercentile(v, 50),
+            v.empty() ? 0.0 : InterpolatedPercentile(v, 95)}) {
+        csv << "," << (v.empty() ? "" : FormatNumber(stat));
+      }
+    }
+    csv << "\n";
+  }
+  for (const std::string& m : metrics) {
+    md << "\n## " << ColumnName(m) << "\n\n|";
+    for (const std::string& key : keys) md << " " << MarkdownField(key) << " |";
+    md << " runs | failed | mean | p50 | p95 | min | max |\n|";
+    for (size_t i = 0; i < keys.size() + 7; ++i) md << "---|";
+    md << "\n";
+    for (const std::string& group : groups) {
+      const SweepRun& first = runs[members[group].front()];
+      const std::vector<double>& v = values[group][m];
+      size_t failed = 0;
+      for (const size_t r : members[group]) failed += outcomes[r].done && !Finished(outcomes[r].exit_code);
+      md << "|";
+      for (const std::string& key : keys) md << " " << MarkdownField(ValueOf(first, key)) << " |";
+      md << " " << members[group].size() << " | " << failed << " |";
+      if (v.empty()) {
+        md << " | | | | |\n";
+        continue;
+      }
+      double sum = 0.0;
+      for (const double x : v) sum += x;
+      char row[160];
+      std::snprintf(row, sizeof row, " %.4g | %.4g | %.4g | %.4g | %.4g |\n", sum / v.size(),
+                    InterpolatedPercentile(v, 50), InterpolatedPercentile(v, 95), v.front(), v.back());
+      md << row;
+    }
+  }
+  md << "\n## Runs that did not finish\n\n";
+  bool any = false;
+  for (size_t r = 0; r < runs.size(); ++r) {
+    if (outcomes[r].done && Finished(outcomes[r].exit_code)) continue;
+    any = true;
+    md << "- `" << runs[r].id << "` " << MarkdownField(Describe(runs[r])) << ": " << outcomes[r].status;
+    if (outcomes[r].done) md << " (exit " << outcomes[r].exit_code << ")";
+    if (!outcomes[r].reason.empty()) md << ": " << MarkdownField(outcomes[r].reason);
+    md << "\n";
+  }
+  if (!any) md << "none\n";
+}
+
+}  // namespace
+
+SweepSpec ReadSweep(const std::string& path) {
+  const YAML::Node root = bridge::LoadYamlFile(path);
+  bridge::YamlMap top(root, path);
+  SweepSpec spec;
+  spec.file = path;
+  spec.name = fs::path(path).stem().string();
+  top.Optional("name", &spec.name);
+  top.Required("scenario", &spec.scenario);
+  const fs::path scenario = fs::path(path).parent_path() / spec.scenario;
+  if (!fs::is_regular_file(scenario)) top.Fail("scenario", "no such file: " + scenario.string());
+  // absolute: a run's id includes it, and stays the same from whatever folder the sweep is resumed
+  spec.scenario = fs::absolute(scenario).lexically_normal().string();
+  spec.overrides = ReadSetOverrides(top);
+
+  bridge::YamlMap grid = top.Map("grid");
+  for (const std::string& key : grid.Keys()) {
+    const YAML::Node values = grid.Raw(key);
+    if (!values.IsSequence() || values.size() == 0) grid.Fail(key, "expected a non-empty list of values");
+    std::vector<std::string> texts;
+    for (const auto& value : values) {
+      texts.push_back(FlowYaml(value));
+      if (std::count(texts.begin(), texts.end(), texts.back()) > 1) {
+        grid.Fail(key, "the value " + texts.back() + " is given twice");
+      }
+    }
+    spec.grid.emplace_back(key, texts);
+  }
+  grid.Finish();
+  ReadRandom(top, &spec);
+  for (const SweepRandomKey& r : spec.random) {
+    for (const auto& [key, values] : spec.grid) {
+      if (key == r.key) top.Fail("random", "'" + key + "' is both in the grid and drawn");
+    }
+  }
+
+  if (top.Has("seeds")) {
+    const YAML::Node seeds = top.Raw("seeds");
+    if (!seeds.IsSequence() || seeds.size() == 0) top.Fail("seeds", "expected a non-empty list of seeds");
+    for (const auto& node : seeds) {
+      uint64_t seed = 0;
+      if (!node.IsScalar() || !YAML::convert<uint64_t>::decode(node, seed) || node.Scalar()[0] == '-') {
+        top.Fail("seeds", "expected non-negative integers, got '" + FlowYaml(node) + "'");
+      }
+      if (std::count(spec.seeds.begin(), spec.seeds.end(), seed) > 0) {
+        top.Fail("seeds", "the seed " + std::to_string(seed) + " is given twice");
+      }
+      spec.seeds.push_back(seed);
+    }
+  }
+  if (top.Has("metrics")) {
+    const YAML::Node metrics = top.Raw("metrics");
+    if (!metrics.IsSequence()) top.Fail("metrics", "expected a list of metrics.json paths (tracking.x.y)");
+    for (const auto& node : metrics) spec.metrics.push_back(MetricPointer(FlowYaml(node)));
+  }
+  top.Optional("jobs", &spec.jobs);
+  if (spec.jobs < 0 || spec.jobs > 1024) top.Fail("jobs", "must be in [1, 1024]");
+  top.Optional("keep_bags", &spec.keep_bags);
+  top.Finish();
+  return spec;
+}
+
+std::vector<SweepRun> ExpandSweep(const SweepSpec& spec) {
+  // the grid's points, the last key fastest
+  std::vector<std::vector<std::pair<std::string, std::string>>> points(1);
+  for (const auto& [key, values] : spec.grid) {
+    std::vector<std::vector<std::pair<std::string, std::string>>> next;
+    for (const auto& point : points) {
+      for (const std::string& value : values) {
+        next.push_back(point);
+        next.back().emplace_back(key, value);
+      }
+    }
+    points = std::move(next);
+  }
+  // the draws, one stream for the whole sweep: draw d is the same whatever the grid
+  std::vector<std::vector<std::pair<std::string, std::string>>> draws(spec.random.empty() ? 1 : spec.draws);
+  std::mt19937_64 rng(spec.random_seed);
+  for (auto& draw : draws) {
+    for (const SweepRandomKey& r : spec.random) {
+      std::string value;
+      if (r.distribution == "uniform") {
+        value = FormatNumber(std::uniform_real_distribution<double>(r.parameters[0], r.parameters[1])(rng));
+      } else if (r.distribution == "normal") {
+        value = FormatNumber(std::normal_distribution<double>(r.parameters[0], r.parameters[1])(rng));
+      } else {
+        value = r.choices[std::uniform_int_distribution<size_t>(0, r.choices.size() - 1)(rng)];
+      }
+      draw.emplace_back(r.key, value);
+    }
+  }
+  std::vector<std::optional<uint64_t>> seeds;
+  for (const uint64_t seed : spec.seeds) seeds.emplace_back(seed);
+  if (seeds.empty()) seeds.emplace_back(std::nullopt);
+
+  std::vector<SweepRun> runs;
+  std::string common = spec.scenario + "\n";
+  for (const std::string& o : spec.overrides) common += o + "\n";
+  for (const auto& point : points) {
+    for (const auto& draw : draws) {
+      SweepRun base;
+      base.values = point;
+      base.values.insert(base.values.end(), draw.begin(), draw.end());
+      // what the group's runs share, keys sorted so that reordering the sweep file keeps the ids
+      std::vector<std::string> assignments;
+      for (const auto& [key, value] : base.values) assignments.push_back(key + "=" + value);
+      std::sort(assignments.begin(), assignments.end());
+      std::string settings = common;
+      for (const std::string& a : assignments) settings += a + "\n";
+      base.group = Hash48(settings);
+      for (const auto& seed : seeds) {
+        SweepRun run = base;
+        run.index = runs.size();
+        run.seed = seed;
+        run.id = Hash48(settings + (seed ? "seed=" + std::to_string(*seed) : std::string()));
+        run.overrides = spec.overrides;
+        for (const auto& [key, value] : run.values) run.overrides.push_back(key + "=" + value);
+        if (seed) run.overrides.push_back("seed=" + std::to_string(*seed));
+        runs.push_back(std::move(run));
+      }
+    }
+  }
+  return runs;
+}
+
+int Sweep(const SweepArgs& args) {
+  SweepSpec spec;
+  std::vector<SweepRun> runs;
+  try {
+    spec = ReadSweep(args.file);
+    // the command line's --set joins the sweep's own set, and so each run's settings (and id)
+    spec.overrides.insert(spec.overrides.end(), args.overrides.begin(), args.overrides.end());
+    runs = ExpandSweep(spec);
+    // every run's scenario keys are checked before any starts: a typo in a grid key fails them all
+    for (const SweepRun& run : runs) {
+      try {
+        bridge::LoadScenario(spec.scenario, run.overrides);
+      } catch (const bridge::ConfigError& e) {
+        throw bridge::ConfigError("run " + run.id + " (" + Describe(run) + "): " + e.what());
+      }
+    }
+  } catch (const bridge::ConfigError& e) {
+    std::cerr << "iapsim sweep: invalid sweep: " << e.what() << std::endl;
+    return 2;
+  }
+  if (args.list) {
+    std::printf("%zu runs of %s\n", runs.size(), spec.scenario.c_str());
+    for (const SweepRun& run : runs)
+      std::printf("%4zu  %s  %s\n", run.index, run.id.c_str(), Describe(run).c_str());
+    return 0;
+  }
+  const fs::path dir = args.out_dir.empty() ? fs::path("sweeps") / (spec.name + "-" + bridge::UtcStamp())
+                                            : fs::path(args.out_dir);
+  if (args.resume && !fs::exists(dir / "sweep.json")) {
+    std::cerr << "iapsim sweep: --resume: no sweep in '" << dir.string() << "' (no sweep.json)" << std::endl;
+    return 2;
+  }
+  if (!args.resume && fs::exists(dir / "sweep.json")) {
+    std::cerr << "iapsim sweep: '" << dir.string()
+              << "' holds a sweep: --resume to finish it, or another --out" << std::endl;
+    return 2;
+  }
+  fs::create_directories(dir / "runs");
+  fs::copy_file(args.file, dir / "sweep.yaml", fs::copy_options::overwrite_existing);
+
+  std::vector<Outcome> outcomes(runs.size());
+  std::vector<size_t> pending;
+  for (const SweepRun& run : runs) {
+    outcomes[run.index] = ReadOutcome(dir / "runs" / run.id);
+    if (!(outcomes[run.index].done && Finished(outcomes[run.index].exit_code))) {
+      outcomes[run.index] = Outcome{};
+      pending.push_back(run.index);
+    }
+  }
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int jobs = args.jobs > 0 ? args.jobs : spec.jobs > 0 ? spec.jobs : cores;
+  std::printf("sweep %s: %zu runs of %s in %s; %zu finished before, %zu to run, %d at a time\n",
+              spec.name.c_str(), runs.size(), spec.scenario.c_str(), dir.string().c_str(),
+              runs.size() - pending.size(), pending.size(), jobs);
+  std::fflush(stdout);
+
+  struct sigaction action {};
+  action.sa_handler = OnSweepInterrupt;  // no SA_RESTART: waitpid returns at once
+  struct sigaction previous_int {
+  }, previous_term{};
+  sigaction(SIGINT, &action, &previous_int);
+  sigaction(SIGTERM, &action, &previous_term);
+  interrupted = 0;
+
+  struct Running {
+    size_t run;
+    Clock::time_point start;
+  };
+  std::map<pid_t, Running> running;
+  size_t next = 0, ended = runs.size() - pending.size();
+  bool forwarded = false;
+  while (next < pending.size() || !running.empty()) {
+    while (!interrupted && next < pending.size() && static_cast<int>(running.size()) < jobs) {
+      const SweepRun& run = runs[pending[next++]];
+      const fs::path run_dir = dir / "runs" / run.id;
+      fs::remove_all(run_dir);  // what an unfinished earlier attempt left
+      fs::create_directories(run_dir);
+      const pid_t pid = StartRun(spec, run, run_dir);
+      if (pid < 0) {
+        outcomes[run.index] =
+            Outcome{true, 1, "failed", std::string("fork: ") + std::strerror(errno), 0.0, {}};
+        continue;
+      }
+      running[pid] = Running{run.index, Clock::now()};
+    }
+    if (interrupted && !forwarded) {  // the terminal's Ctrl-C reached them too; a kill of the sweep did not
+      for (const auto& [pid, r] : running) kill(pid, SIGINT);
+      forwarded = true;
+    }
+    if (running.empty()) break;
+    int status = 0;
+    const pid_t pid = waitpid(-1, &status, 0);
+    if (pid < 0) {
+      if (errno == EINTR) continue;
+      break;
+    }
+    const auto it = running.find(pid);
+    if (it == running.end()) continue;
+    const SweepRun& run = runs[it->second.run];
+    const fs::path run_dir = dir / "runs" / run.id;
+    Outcome& outcome = outcomes[run.index];
+    outcome.done = true;
+    outcome.wall_s = std::chrono::duration<double>(Clock::now() - it->second.start).count();
+    running.erase(it);
+    if (WIFEXITED(status)) {
+      outcome.exit_code = WEXITSTATUS(status);
+      outcome.status = StatusOf(outcome.exit_code);
+      if (!Finished(outcome.exit_code)) outcome.reason = ReasonFromLog(run_dir / "iapsim.log");
+    } else {
+      const int signal = WTERMSIG(status);
+      outcome.exit_code = 128 + signal;
+      outcome.status = "failed";
+      outcome.reason =
+          std::string("killed by signal ") + std::to_string(signal) + " (" + strsignal(signal) + ")";
+    }
+    if (Finished(outcome.exit_code)) {
+      std::ifstream metrics(run_dir / "metrics.json");
+      outcome.metrics = nlohmann::json::parse(metrics, nullptr, false);
+      if (outcome.metrics.is_discarded()) outcome.metrics = nlohmann::json();
+      if (!spec.keep_bags) fs::remove(run_dir / "run.bag");
+    }
+    WriteJsonAtomically(run_dir / "sweep_run.json", OutcomeJson(run, outcome));
+    ++ended;
+    std::printf("[%zu/%zu] %s %s: %s in %.1f s%s%s\n", ended, runs.size(), run.id.c_str(),
+                Describe(run).c_str(), outcome.status.c_str(), outcome.wall_s,
+                outcome.reason.empty() ? "" : ": ", outcome.reason.c_str());
+    std::fflush(stdout);
+  }
+  sigaction(SIGINT, &previous_int, nullptr);
+  sigaction(SIGTERM, &previous_term, nullptr);
+
+  const std::vector<std::string> metrics = MetricColumns(spec, outcomes);
+  WriteResults(dir, spec, runs, outcomes, metrics);
+  WriteSummary(dir, spec, runs, outcomes, metrics);
+  nlohmann::json record = {
+      {"name", spec.name}, {"scenario", spec.scenario}, {"jobs", jobs}, {"swept_keys", SweptKeys(spec)}};
+  for (const SweepRun& run : runs) record["runs"].push_back(OutcomeJson(run, outcomes[run.index]));
+  WriteJsonAtomically(dir / "sweep.json", record);
+
+  size_t finished = 0;
+  for (const Outcome& o : outcomes) finished += o.done && Finished(o.exit_code);
+  std::printf("%zu of %zu runs finished; %s/results.md (a row per run), %s/summary.md (per group)\n",
+              finished, runs.size(), dir.string().c_str(), dir.string().c_str());
+  if (interrupted) {
+    std::printf("interrupted: `iapsim sweep %s --out %s --resume` runs the rest\n", args.file.c_str(),
+                dir.string().c_str());
+    return 130;
+  }
+  return finished == runs.size() ? 0 : 1;
+}
+
+}  // namespace iapsim::tools

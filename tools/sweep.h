@@ -1,0 +1,87 @@
+#pragma once
+// `iapsim sweep SWEEP.yaml`: many runs of one scenario, over a grid and/or random draws of scenario keys and
+// over seeds, each an `iapsim run` of its own (evaluated as that command evaluates it), run N at a time on
+// this machine; then one table of every run's metrics and per-group statistics over the seeds.
+//
+//   name: spiral_gains                   # default: the file's name
+//   scenario: ../scenarios/x.yaml        # relative to the sweep file
+//   set: {duration_s: 5}                 # every run (dotted keys, as --set)
+//   grid:                                # every combination, in this order (the last key varies fastest)
+//     processes.control.params.kp: [1.0, 2.0, 3.0]
+//   random:                              # `draws` draws of these keys (seeded: the same draws every time)
+//     draws: 4
+//     seed: 1
+//     keys: {clock.step_s: {choice: [0.001, 0.002]}, processes.x.params.gain: {uniform: [0.95, 1.05]},
+//            processes.x.params.offset_m: {normal: [0.0, 0.01]}}
+//   seeds: [1, 2]                        # each point of the grid and draw, once per seed
+//   metrics: [tracking.position_rmse_m.z] # the table's columns (default: every number of metrics.json but
+//                                        # the per-process and loss counters)
+//   jobs: 2                              # runs at a time (default: the machine's cores; --jobs wins)
+//   keep_bags: true                      # false: a finished run's run.bag is deleted after its evaluation
+//
+// A run's id is a hash of its settings (its swept values and seed): stable across invocations and sweep
+// file edits, so `--resume` skips every run already finished (exit 0, or 3: completed with losses) and
+// runs the rest again. A run that fails is reported with its exit code and the reason its log gives, never
+// dropped. Out: DIR/runs/ID/ (the run, and iapsim.log: its output), DIR/results.{csv,md} (a row per run),
+// DIR/summary.{csv,md} (a row per group: mean, p50, p95 of each metric over its seeds, and its failures),
+// DIR/sweep.json (the expanded runs and their outcomes).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace iapsim::tools {
+
+struct SweepRandomKey {
+  std::string key;
+  std::string distribution;          // uniform | normal | choice
+  std::vector<double> parameters;    // uniform: lo, hi; normal: mean, sigma
+  std::vector<std::string> choices;  // choice: the values, as written
+};
+
+struct SweepSpec {
+  std::string file;  // the sweep file
+  std::string name;
+  std::string scenario;                                                // path as the process can open it
+  std::vector<std::string> overrides;                                  // `set`
+  std::vector<std::pair<std::string, std::vector<std::string>>> grid;  // key -> values (flow YAML), in order
+  int draws = 0;
+  uint64_t random_seed = 1;
+  std::vector<SweepRandomKey> random;
+  std::vector<uint64_t> seeds;       // empty: the scenario's own seed
+  std::vector<std::string> metrics;  // JSON pointers into metrics.json
+  int jobs = 0;                      // 0: not set
+  bool keep_bags = true;
+};
+
+/// Reads and checks a sweep file. Throws bridge::ConfigError naming the file, line and key.
+SweepSpec ReadSweep(const std::string& path);
+
+struct SweepRun {
+  size_t index = 0;   // in expansion order
+  std::string id;     // 12 hex digits of a hash of `values` and `seed`
+  std::string group;  // the id of `values` alone: runs that differ only by seed
+  std::vector<std::pair<std::string, std::string>> values;  // swept key -> value, grid keys then random ones
+  std::optional<uint64_t> seed;
+  std::vector<std::string> overrides;  // every --set of the run: the sweep's set, values, seed
+};
+
+/// The runs of a sweep: grid points (the last key fastest) x draws x seeds.
+std::vector<SweepRun> ExpandSweep(const SweepSpec& spec);
+
+struct SweepArgs {
+  std::string file;
+  std::string out_dir;                 // default: sweeps/NAME-UTCTIME
+  int jobs = 0;                        // 0: the sweep file's, else the machine's cores
+  bool resume = false;                 // out_dir exists: skip its finished runs
+  bool list = false;                   // print the runs and exit
+  std::vector<std::string> overrides;  // --set for every run, after the sweep's own
+};
+
+/// The whole command. Exit codes: 0 every run finished, 1 some failed (the tables say which and why), 2 a bad
+/// sweep file or arguments, 130 interrupted (finished runs are kept for --resume).
+int Sweep(const SweepArgs& args);
+
+}  // namespace iapsim::tools
