@@ -36,6 +36,7 @@ grep -q "seed: 1" "$work/noise/runs/$first/scenario.resolved.yaml" || fail "run 
 [ "$(wc -l < "$work/noise/summary.csv")" -eq 4 ] || fail "summary: $(cat "$work/noise/summary.csv")"
 grep -q "^[0-9a-f]*,0.1,2,2,0,0.3,0.3,0.3,0,0,0$" "$work/noise/summary.csv" || fail "summary: $(cat "$work/noise/summary.csv")"
 grep -q "## sim_time_s" "$work/noise/summary.md" || fail "summary.md: $(cat "$work/noise/summary.md")"
+[ -s "$work/noise/plot_processes.uwb.params.noise_m.png" ] || fail "no plot: $(ls "$work/noise")"
 # a finished sweep is not overwritten
 expect_exit 2 "holds a sweep: --resume" "$iapsim" sweep "$work/noise.yaml" --out "$work/noise"
 # --resume of a finished sweep runs nothing

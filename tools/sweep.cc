@@ -26,6 +26,7 @@
 #include "bridge/launcher.h"
 #include "bridge/scenario.h"
 #include "tools/batch.h"
+#include "tools/plot_script.h"
 
 namespace iapsim::tools {
 namespace {
@@ -695,6 +696,8 @@ int Sweep(const SweepArgs& args) {
   sigaction(SIGINT, &previous_int, nullptr);
   sigaction(SIGTERM, &previous_term, nullptr);
 
+  size_t finished = 0;
+  for (const Outcome& o : outcomes) finished += o.done && Finished(o.exit_code);
   const std::vector<std::string> metrics = MetricColumns(spec, outcomes);
   WriteResults(dir, spec, runs, outcomes, metrics);
   WriteSummary(dir, spec, runs, outcomes, metrics);
@@ -702,11 +705,10 @@ int Sweep(const SweepArgs& args) {
       {"name", spec.name}, {"scenario", spec.scenario}, {"jobs", jobs}, {"swept_keys", SweptKeys(spec)}};
   for (const SweepRun& run : runs) record["runs"].push_back(OutcomeJson(run, outcomes[run.index]));
   WriteJsonAtomically(dir / "sweep.json", record);
+  if (!SweptKeys(spec).empty() && finished > 0) RunPlotScript(IAPSIM_PLOT_SWEEP, {dir.string()});
 
-  size_t finished = 0;
-  for (const Outcome& o : outcomes) finished += o.done && Finished(o.exit_code);
-  std::printf("%zu of %zu runs finished; %s/results.md (a row per run), %s/summary.md (per group)\n",
-              finished, runs.size(), dir.string().c_str(), dir.string().c_str());
+  std::printf("%zu of %zu runs finished; %s/results.md (a row per run), summary.md (per group), plot_*.png\n",
+              finished, runs.size(), dir.string().c_str());
   if (interrupted) {
     std::printf("interrupted: `iapsim sweep %s --out %s --resume` runs the rest\n", args.file.c_str(),
                 dir.string().c_str());

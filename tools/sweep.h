@@ -24,7 +24,8 @@
 // runs the rest again. A run that fails is reported with its exit code and the reason its log gives, never
 // dropped. Out: DIR/runs/ID/ (the run, and iapsim.log: its output), DIR/results.{csv,md} (a row per run),
 // DIR/summary.{csv,md} (a row per group: mean, p50, p95 of each metric over its seeds, and its failures),
-// DIR/sweep.json (the expanded runs and their outcomes).
+// DIR/sweep.json (the expanded runs and their outcomes), DIR/plot_KEY.png (each metric against each swept key,
+// tools/plot_sweep.py).
 
 #include <cstdint>
 #include <optional>
