@@ -495,8 +495,7 @@ SweepSpec ReadSweep(const std::string& path) {
     if (!metrics.IsSequence()) top.Fail("metrics", "expected a list of metrics.json paths (tracking.x.y)");
     for (const auto& node : metrics) spec.metrics.push_back(MetricPointer(FlowYaml(node)));
   }
-  top.Optional("jobs", &spec.jobs);
-  if (spec.jobs < 0 || spec.jobs > 1024) top.Fail("jobs", "must be in [1, 1024]");
+  if (top.Has("jobs")) top.OptionalInRange("jobs", &spec.jobs, 1, 1024);  // absent: 0, not set
   top.Optional("keep_bags", &spec.keep_bags);
   top.Finish();
   return spec;

@@ -120,6 +120,7 @@ TEST_F(SweepFile, MistakesNameTheFileLineAndKey) {
       {"scenario: scenario.yaml\ngrid: {a: [1]}\nrandom: {draws: 2, keys: {a: {choice: [1]}}}\n",
        "'a' is both in the grid and drawn"},
       {"scenario: scenario.yaml\ngrdi: {a: [1]}\n", "grdi"},
+      {"scenario: scenario.yaml\njobs: 0\n", "jobs: must be in [1, 1024]"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.text);
