@@ -79,10 +79,7 @@ for _ in $(seq 300); do
   sleep 0.1
 done
 kill -INT $sweep
-set +e
-wait $sweep
-code=$?
-set -e
+wait_code $sweep
 [ $code -eq 130 ] || fail "an interrupted sweep exited $code: $(cat "$work/seeds.out")"
 grep -q "interrupted: .*--resume" "$work/seeds.out" || fail "interrupted: $(cat "$work/seeds.out")"
 grep -q "1 of 3 runs finished" "$work/seeds.out" || fail "interrupted: $(cat "$work/seeds.out")"

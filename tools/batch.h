@@ -1,6 +1,7 @@
 #pragma once
 // What the batches of runs share: the regression suite's Monte Carlo draws (tools/regress.cc) and
-// `iapsim sweep` (tools/sweep.h) read their `set:` blocks and summarise their runs' metrics the same way.
+// `iapsim sweep` (tools/sweep.h) read their `set:` blocks and summarise their runs' metrics the same way, and
+// start the programs they drive (sbatch, iapsim sweep) the same way.
 
 #include <nlohmann/json.hpp>
 #include <string>
@@ -20,5 +21,13 @@ double InterpolatedPercentile(const std::vector<double>& sorted, double p);
 /// Every number of the runs' metrics (metrics.json) as {p5, p50, p95, mean, min, max, draws} over the runs
 /// that have it.
 nlohmann::json MetricStatistics(const std::vector<nlohmann::json>& runs);
+
+struct CommandResult {
+  int exit_code = -1;  // 127: it could not be started; 128 + N: killed by signal N
+  std::string output;  // standard output and error together
+};
+
+/// Runs argv[0] (found on PATH) with these arguments, no shell in between, and collects what it prints.
+CommandResult RunCapturing(const std::vector<std::string>& argv);
 
 }  // namespace iapsim::tools

@@ -1,8 +1,8 @@
 #pragma once
 // The subcommands of the `iapsim` program. Each returns the process exit code.
 
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -127,8 +127,13 @@ int BenchFidelity(const std::string& vehicle_path, nlohmann::json* report);
 /// and where one thread's time goes (policy, physics in the air and in contact, the rest of the environment).
 int BenchRl(const std::string& task_file, nlohmann::json* report);
 
+/// `iapsim sweep`'s throughput: 8 seeds of the scenario one at a time, on the local pool (a run per core) and
+/// as a Slurm job array (SLURM_CONF's cluster, else a one-node cluster started for it when Slurm is
+/// installed).
+int BenchSweep(const std::string& scenario, nlohmann::json* report);
+
 struct BenchArgs {
-  std::string what = "all";  // bus, physics, render, record, fidelity, rl or all
+  std::string what = "all";  // bus, physics, render, record, launch, fidelity, rl, sweep or all
   std::string vehicle = "configs/vehicles/three_star.yaml";
   std::string scene = "configs/scenes/buildings.yaml";
   std::string scenario = "configs/regression/three_star_spiral.yaml";

@@ -168,6 +168,20 @@ int main(int argc, char** argv) {
   sweep_cmd->add_flag("--list", sweep.list, "print the runs (ids and settings) and exit");
   sweep_cmd->add_option("--set", sweep.overrides,
                         "override a scenario key in every run: KEY=VALUE (repeatable)");
+  sweep_cmd->add_flag("--slurm", sweep.slurm,
+                      "submit the runs as one Slurm job array (sbatch) and wait for it, instead of the local "
+                      "pool; --out must be on a file system the nodes share");
+  sweep_cmd->add_option("--partition", sweep.partition, "with --slurm: the partition (default: the sweep's)");
+  sweep_cmd->add_option("--time", sweep.time,
+                        "with --slurm: a run's time limit, as sbatch takes it (01:00:00)");
+  sweep_cmd->add_option("--cpus-per-run", sweep.cpus_per_run, "with --slurm: CPUs of each run (default 1)")
+      ->check(CLI::Range(1, 1024));
+  std::string sweep_task_dir, sweep_task_id;
+  // what each task of a --slurm array runs (tools/sweep.h); not for users, so not listed
+  auto* sweep_task_cmd =
+      app.add_subcommand("sweep-task", "one run of a sweep, as a Slurm task runs it")->group("");
+  sweep_task_cmd->add_option("dir", sweep_task_dir, "the sweep's folder")->required();
+  sweep_task_cmd->add_option("id", sweep_task_id, "the run's id")->required();
 
   LiveArgs echo;
   auto* echo_cmd = app.add_subcommand("echo", "print the messages of a topic of a running graph as YAML");
@@ -183,16 +197,17 @@ int main(int argc, char** argv) {
 
   BenchArgs bench;
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
-  bench_cmd->add_option("what", bench.what, "bus, physics, render, record, launch, fidelity, rl or all")
-      ->check(CLI::IsMember({"bus", "physics", "render", "record", "launch", "fidelity", "rl", "all"}));
+  bench_cmd
+      ->add_option("what", bench.what, "bus, physics, render, record, launch, fidelity, rl, sweep or all")
+      ->check(
+          CLI::IsMember({"bus", "physics", "render", "record", "launch", "fidelity", "rl", "sweep", "all"}));
   bench_cmd->add_option("--vehicle", bench.vehicle,
                         "physics, render, fidelity: the vehicle to measure (default the three-star)");
   bench_cmd->add_option("--scene", bench.scene, "render: the scene (default configs/scenes/buildings.yaml)");
   bench_cmd
-      ->add_option(
-          "--scenario", bench.scenario,
-          "record, launch: the scenario run; physics: the scenario whose ideal and realistic profiles are "
-          "compared (default configs/regression/three_star_spiral.yaml)")
+      ->add_option("--scenario", bench.scenario,
+                   "record, launch, sweep: the scenario run; physics: the scenario whose ideal and realistic "
+                   "profiles are compared (default configs/regression/three_star_spiral.yaml)")
       ->check(CLI::ExistingFile);
   bench_cmd->add_option("--repeat", bench.repeats, "record, launch: runs of each variant (default 3)")
       ->check(CLI::Range(1, 100));
@@ -217,6 +232,7 @@ int main(int argc, char** argv) {
     if (*evaluate_cmd) return Evaluate(evaluate_run);
     if (*regress_cmd) return Regress(regress);
     if (*sweep_cmd) return Sweep(sweep);
+    if (*sweep_task_cmd) return SweepTask(sweep_task_dir, sweep_task_id);
     if (*info_cmd) return Info(info_bag);
     if (*reindex_cmd) return Reindex(reindex);
     if (*export_cmd) return Export(exp);

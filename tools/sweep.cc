@@ -196,9 +196,9 @@ void WriteJsonAtomically(const fs::path& path, const nlohmann::json& json) {
 
 // Starts `iapsim run` for `run` in `run_dir`, its output in run_dir/iapsim.log. The child stops (SIGINT: it
 // ends its graph cleanly) if the sweep dies.
-pid_t StartRun(const SweepSpec& spec, const SweepRun& run, const fs::path& run_dir) {
+pid_t StartRun(const std::string& scenario, const SweepRun& run, const fs::path& run_dir) {
   const std::string program = bridge::ExecutableDir() + "/iapsim";
-  std::vector<std::string> args = {program, "run", spec.scenario, "--out", run_dir.string()};
+  std::vector<std::string> args = {program, "run", scenario, "--out", run_dir.string()};
   for (const std::string& o : run.overrides) {
     args.push_back("--set");
     args.push_back(o);
@@ -228,6 +228,53 @@ std::string Describe(const SweepRun& run) {
   for (const auto& [key, value] : run.values) text += (text.empty() ? "" : " ") + key + "=" + value;
   if (run.seed) text += (text.empty() ? "" : " ") + std::string("seed=") + std::to_string(*run.seed);
   return text.empty() ? "(the scenario as it is)" : text;
+}
+
+// A run that ended with wait status `status`: its outcome from its exit code, its log and its metrics.json,
+// recorded in RUN/sweep_run.json (what --resume, and a --slurm sweep waiting for its tasks, read)
+Outcome EndRun(const SweepRun& run, const fs::path& run_dir, int status, double wall_s, bool keep_bags) {
+  Outcome outcome;
+  outcome.done = true;
+  outcome.wall_s = wall_s;
+  if (WIFEXITED(status)) {
+    outcome.exit_code = WEXITSTATUS(status);
+    outcome.status = StatusOf(outcome.exit_code);
+    if (!Finished(outcome.exit_code)) outcome.reason = ReasonFromLog(run_dir / "iapsim.log");
+  } else {
+    const int signal = WTERMSIG(status);
+    outcome.exit_code = 128 + signal;
+    outcome.status = StatusOf(outcome.exit_code);  // SIGINT before its handler was set: interrupted
+    outcome.reason =
+        std::string("killed by signal ") + std::to_string(signal) + " (" + strsignal(signal) + ")";
+  }
+  if (Finished(outcome.exit_code)) {
+    std::ifstream metrics(run_dir / "metrics.json");
+    outcome.metrics = nlohmann::json::parse(metrics, nullptr, false);
+    if (outcome.metrics.is_discarded()) outcome.metrics = nlohmann::json();
+    if (!keep_bags) fs::remove(run_dir / "run.bag");
+  }
+  WriteJsonAtomically(run_dir / "sweep_run.json", OutcomeJson(run, outcome));
+  return outcome;
+}
+
+// A run as sweep.json lists it (OutcomeJson)
+SweepRun RunFromJson(const nlohmann::json& entry) {
+  SweepRun run;
+  run.index = entry.at("index").get<size_t>();
+  run.id = entry.at("id").get<std::string>();
+  run.group = entry.at("group").get<std::string>();
+  for (const auto& [key, value] : entry.at("values").items())
+    run.values.emplace_back(key, value.get<std::string>());
+  if (entry.at("seed").is_number()) run.seed = entry["seed"].get<uint64_t>();
+  run.overrides = entry.at("overrides").get<std::vector<std::string>>();
+  return run;
+}
+
+void PrintEnded(size_t ended, size_t total, const SweepRun& run, const Outcome& outcome) {
+  std::printf("[%zu/%zu] %s %s: %s in %.1f s%s%s\n", ended, total, run.id.c_str(), Describe(run).c_str(),
+              outcome.status.c_str(), outcome.wall_s, outcome.reason.empty() ? "" : ": ",
+              outcome.reason.c_str());
+  std::fflush(stdout);
 }
 
 std::string CsvField(const std::string& text) {
@@ -322,9 +369,9 @@ void WriteResults(const fs::path& dir, const SweepSpec& spec, const std::vector<
         run.seed ? std::optional<double>(static_cast<double>(*run.seed)) : MetricValue(o, "/seed");
     csv_row.push_back(seed ? FormatNumber(*seed) : "");
     csv_row.push_back(o.status);
-    csv_row.push_back(o.done ? std::to_string(o.exit_code) : "");
+    csv_row.push_back(o.done && o.exit_code >= 0 ? std::to_string(o.exit_code) : "");
     char wall[32] = "";
-    if (o.done) std::snprintf(wall, sizeof wall, "%.2f", o.wall_s);
+    if (o.done && o.exit_code >= 0) std::snprintf(wall, sizeof wall, "%.2f", o.wall_s);
     csv_row.push_back(wall);
     md_row = csv_row;
     for (const std::string& m : metrics) {
@@ -432,7 +479,7 @@ void WriteSummary(const fs::path& dir, const SweepSpec& spec, const std::vector<
     if (outcomes[r].done && Finished(outcomes[r].exit_code)) continue;
     any = true;
     md << "- `" << runs[r].id << "` " << MarkdownField(Describe(runs[r])) << ": " << outcomes[r].status;
-    if (outcomes[r].done) md << " (exit " << outcomes[r].exit_code << ")";
+    if (outcomes[r].done && outcomes[r].exit_code >= 0) md << " (exit " << outcomes[r].exit_code << ")";
     if (!outcomes[r].reason.empty()) md << ": " << MarkdownField(outcomes[r].reason);
     md << "\n";
   }
@@ -497,6 +544,24 @@ SweepSpec ReadSweep(const std::string& path) {
   }
   if (top.Has("jobs")) top.OptionalInRange("jobs", &spec.jobs, 1, 1024);  // absent: 0, not set
   top.Optional("keep_bags", &spec.keep_bags);
+  if (top.Has("slurm")) {
+    bridge::YamlMap slurm = top.Map("slurm");
+    slurm.Optional("partition", &spec.slurm.partition);
+    slurm.Optional("time", &spec.slurm.time);
+    slurm.OptionalInRange("cpus_per_run", &spec.slurm.cpus_per_task, 1, 1024);
+    if (slurm.Has("sbatch")) {
+      const YAML::Node sbatch = slurm.Raw("sbatch");
+      if (!sbatch.IsSequence()) slurm.Fail("sbatch", "expected a list of sbatch arguments ([--qos=short])");
+      for (const auto& node : sbatch) {
+        if (!node.IsScalar() || node.Scalar().rfind("-", 0) != 0) {
+          slurm.Fail("sbatch",
+                     "expected sbatch options (each starting with -), got '" + FlowYaml(node) + "'");
+        }
+        spec.slurm.sbatch_args.push_back(node.Scalar());
+      }
+    }
+    slurm.Finish();
+  }
   top.Finish();
   return spec;
 }
@@ -564,6 +629,174 @@ std::vector<SweepRun> ExpandSweep(const SweepSpec& spec) {
   return runs;
 }
 
+namespace {
+
+// what the runs of one invocation share while they run
+struct SweepState {
+  const SweepSpec& spec;
+  const fs::path& dir;
+  const std::vector<SweepRun>& runs;
+  std::vector<Outcome>& outcomes;
+  size_t ended = 0;  // runs done, in earlier invocations too
+
+  void End(const SweepRun& run, Outcome outcome) {
+    outcomes[run.index] = std::move(outcome);
+    PrintEnded(++ended, runs.size(), run, outcomes[run.index]);
+  }
+};
+
+// DIR/slurm/<this>: the sweep was interrupted; a --slurm task that starts after it records its run as
+// interrupted without running it
+constexpr const char* kInterruptedMark = "interrupted";
+
+nlohmann::json SweepRecord(const SweepState& state, const std::string& backend) {
+  nlohmann::json record = {{"name", state.spec.name},
+                           {"scenario", state.spec.scenario},
+                           {"backend", backend},
+                           {"keep_bags", state.spec.keep_bags},
+                           {"swept_keys", SweptKeys(state.spec)},
+                           {"runs", nlohmann::json::array()}};
+  for (const SweepRun& run : state.runs)
+    record["runs"].push_back(OutcomeJson(run, state.outcomes[run.index]));
+  return record;
+}
+
+// `pending` on this machine, `jobs` at a time, each a child `iapsim run`
+void RunLocalPool(SweepState& state, const std::vector<size_t>& pending, int jobs) {
+  struct Running {
+    size_t run;
+    Clock::time_point start;
+  };
+  std::map<pid_t, Running> running;
+  size_t next = 0;
+  bool forwarded = false;
+  while (next < pending.size() || !running.empty()) {
+    while (!interrupted && next < pending.size() && static_cast<int>(running.size()) < jobs) {
+      const SweepRun& run = state.runs[pending[next++]];
+      const fs::path run_dir = state.dir / "runs" / run.id;
+      const pid_t pid = StartRun(state.spec.scenario, run, run_dir);
+      if (pid < 0) {
+        state.End(run, Outcome{true, 1, "failed", std::string("fork: ") + std::strerror(errno), 0.0, {}});
+        continue;
+      }
+      running[pid] = Running{run.index, Clock::now()};
+    }
+    if (interrupted && !forwarded) {  // the terminal's Ctrl-C reached them too; a kill of the sweep did not
+      for (const auto& [pid, r] : running) kill(pid, SIGINT);
+      forwarded = true;
+    }
+    if (running.empty()) break;
+    int status = 0;
+    const pid_t pid = waitpid(-1, &status, 0);
+    if (pid < 0) {
+      if (errno == EINTR) continue;
+      break;
+    }
+    const auto it = running.find(pid);
+    if (it == running.end()) continue;
+    const SweepRun& run = state.runs[it->second.run];
+    const double wall_s = std::chrono::duration<double>(Clock::now() - it->second.start).count();
+    running.erase(it);
+    state.End(run, EndRun(run, state.dir / "runs" / run.id, status, wall_s, state.spec.keep_bags));
+  }
+}
+
+// `pending` as the tasks of one Slurm job array, each `iapsim sweep-task DIR ID`; waits for the array, taking
+// each run's outcome as its task records it. False when the array could not be submitted.
+bool RunOnSlurm(SweepState& state, const std::vector<size_t>& pending, const SlurmOptions& options) {
+  const fs::path slurm_dir = fs::absolute(state.dir / "slurm");  // the cluster's paths: absolute
+  fs::create_directories(slurm_dir);
+  fs::remove(slurm_dir / kInterruptedMark);  // an earlier, interrupted invocation's
+  std::vector<std::string> ids;
+  for (const size_t r : pending) ids.push_back(state.runs[r].id);
+  const fs::path script = slurm_dir / ("array-" + bridge::UtcStamp() + ".sh");
+  std::string job;
+  try {
+    job = SubmitArray(script, "iapsim-" + state.spec.name, options,
+                      {bridge::ExecutableDir() + "/iapsim", "sweep-task", fs::absolute(state.dir).string()},
+                      ids, slurm_dir);
+  } catch (const SlurmError& e) {
+    std::cerr << "iapsim sweep: --slurm: " << e.what() << std::endl;
+    return false;
+  }
+  std::printf("submitted Slurm job array %s (%zu tasks, %s); its tasks' output in %s\n", job.c_str(),
+              ids.size(), script.string().c_str(), slurm_dir.string().c_str());
+  std::fflush(stdout);
+
+  std::vector<size_t> waiting(pending.size());  // task numbers whose run has no outcome yet
+  for (size_t t = 0; t < waiting.size(); ++t) waiting[t] = t;
+  const auto take_outcomes = [&] {
+    waiting.erase(std::remove_if(waiting.begin(), waiting.end(),
+                                 [&](size_t t) {
+                                   const SweepRun& run = state.runs[pending[t]];
+                                   Outcome outcome = ReadOutcome(state.dir / "runs" / run.id);
+                                   if (!outcome.done) return false;
+                                   state.End(run, std::move(outcome));
+                                   return true;
+                                 }),
+                  waiting.end());
+  };
+  // a controller that does not answer for this long is taken as gone (its runs are failed, --resume reruns
+  // them)
+  constexpr double kUnreachableS = 60.0;
+  constexpr double kPollS = 0.25;  // squeue's load on the controller: 4 small queries a second
+  int unanswered_queries = 0;      // in a row, 4 a second
+  constexpr double kCancelGraceS = 30.0;
+  int polls_since_cancel = 0;
+  bool cancelled = false;
+  std::string unreachable;
+  while (true) {
+    take_outcomes();
+    if (waiting.empty()) return true;
+    if (interrupted && !cancelled) {
+      std::printf("interrupted: cancelling Slurm job %s\n", job.c_str());
+      std::fflush(stdout);
+      // first the mark, then the signals: a task that starts between them, and so misses them, sees it
+      std::ofstream(slurm_dir / kInterruptedMark) << "interrupted\n";
+      InterruptArray(job);
+      cancelled = true;
+    }
+    // a task that has not ended its run this long after the interrupt is cancelled outright
+    if (cancelled && ++polls_since_cancel * kPollS == kCancelGraceS) CancelArray(job);
+    std::string error;
+    const SlurmJobState job_state = QueryArray(job, &error);
+    if (job_state == SlurmJobState::kUnreachable) {
+      if (unanswered_queries++ == 0) {
+        std::fprintf(stderr, "iapsim sweep: squeue: %s (trying again for %.0f s)\n", error.c_str(),
+                     kUnreachableS);
+      }
+      unreachable = error;
+    } else {
+      unanswered_queries = 0;
+    }
+    const bool lost = unanswered_queries * kPollS > kUnreachableS;
+    if (job_state == SlurmJobState::kEnded || lost) {
+      take_outcomes();  // a task records its outcome before it ends
+      for (const size_t t : waiting) {
+        const SweepRun& run = state.runs[pending[t]];
+        Outcome outcome{true, -1, cancelled ? "interrupted" : "failed", "", 0.0, {}};
+        const fs::path output = TaskOutput(slurm_dir, job, t);
+        if (lost) {
+          outcome.reason = "lost contact with Slurm: " + unreachable;
+        } else if (cancelled) {
+          outcome.reason = fs::exists(output) ? "cancelled while it ran" : "cancelled before it started";
+        } else {
+          const std::string last = ReasonFromLog(output);
+          outcome.reason = "its Slurm task " + job + "_" + std::to_string(t) +
+                           " ended without recording an outcome (killed, out of time, or its node lost)" +
+                           (last.empty() ? "" : "; its output ends: " + last);
+        }
+        WriteJsonAtomically(state.dir / "runs" / run.id / "sweep_run.json", OutcomeJson(run, outcome));
+        state.End(run, std::move(outcome));
+      }
+      return true;
+    }
+    std::this_thread::sleep_for(std::chrono::duration<double>(kPollS));
+  }
+}
+
+}  // namespace
+
 int Sweep(const SweepArgs& args) {
   SweepSpec spec;
   std::vector<SweepRun> runs;
@@ -611,13 +844,32 @@ int Sweep(const SweepArgs& args) {
     if (!(outcomes[run.index].done && Finished(outcomes[run.index].exit_code))) {
       outcomes[run.index] = Outcome{};
       pending.push_back(run.index);
+      fs::remove_all(dir / "runs" / run.id);  // what an unfinished earlier attempt left
+      fs::create_directories(dir / "runs" / run.id);
     }
   }
+  SweepState state{spec, dir, runs, outcomes, runs.size() - pending.size()};
+  const std::string backend = args.slurm ? "slurm" : "local";
+  // written before any run starts: a sweep killed outright can be resumed, and the Slurm tasks read it
+  WriteJsonAtomically(dir / "sweep.json", SweepRecord(state, backend));
+
+  const int explicit_jobs = args.jobs > 0 ? args.jobs : spec.jobs;
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const int jobs = args.jobs > 0 ? args.jobs : spec.jobs > 0 ? spec.jobs : cores;
-  std::printf("sweep %s: %zu runs of %s in %s; %zu finished before, %zu to run, %d at a time\n",
-              spec.name.c_str(), runs.size(), spec.scenario.c_str(), dir.string().c_str(),
-              runs.size() - pending.size(), pending.size(), jobs);
+  const int jobs = explicit_jobs > 0 ? explicit_jobs : cores;
+  SlurmOptions slurm = spec.slurm;
+  if (!args.partition.empty()) slurm.partition = args.partition;
+  if (!args.time.empty()) slurm.time = args.time;
+  if (args.cpus_per_run > 0) slurm.cpus_per_task = args.cpus_per_run;
+  slurm.max_running = explicit_jobs;  // on Slurm, --jobs only when asked: the cluster decides otherwise
+  std::printf("sweep %s: %zu runs of %s in %s; %zu finished before, %zu to run, ", spec.name.c_str(),
+              runs.size(), spec.scenario.c_str(), dir.string().c_str(), runs.size() - pending.size(),
+              pending.size());
+  if (args.slurm) {
+    std::printf("on Slurm, %d CPU%s each%s\n", slurm.cpus_per_task, slurm.cpus_per_task == 1 ? "" : "s",
+                explicit_jobs > 0 ? (", " + std::to_string(explicit_jobs) + " at a time").c_str() : "");
+  } else {
+    std::printf("%d at a time\n", jobs);
+  }
   std::fflush(stdout);
 
   struct sigaction action {};
@@ -627,70 +879,13 @@ int Sweep(const SweepArgs& args) {
   sigaction(SIGINT, &action, &previous_int);
   sigaction(SIGTERM, &action, &previous_term);
   interrupted = 0;
-
-  struct Running {
-    size_t run;
-    Clock::time_point start;
-  };
-  std::map<pid_t, Running> running;
-  size_t next = 0, ended = runs.size() - pending.size();
-  bool forwarded = false;
-  while (next < pending.size() || !running.empty()) {
-    while (!interrupted && next < pending.size() && static_cast<int>(running.size()) < jobs) {
-      const SweepRun& run = runs[pending[next++]];
-      const fs::path run_dir = dir / "runs" / run.id;
-      fs::remove_all(run_dir);  // what an unfinished earlier attempt left
-      fs::create_directories(run_dir);
-      const pid_t pid = StartRun(spec, run, run_dir);
-      if (pid < 0) {
-        outcomes[run.index] =
-            Outcome{true, 1, "failed", std::string("fork: ") + std::strerror(errno), 0.0, {}};
-        continue;
-      }
-      running[pid] = Running{run.index, Clock::now()};
-    }
-    if (interrupted && !forwarded) {  // the terminal's Ctrl-C reached them too; a kill of the sweep did not
-      for (const auto& [pid, r] : running) kill(pid, SIGINT);
-      forwarded = true;
-    }
-    if (running.empty()) break;
-    int status = 0;
-    const pid_t pid = waitpid(-1, &status, 0);
-    if (pid < 0) {
-      if (errno == EINTR) continue;
-      break;
-    }
-    const auto it = running.find(pid);
-    if (it == running.end()) continue;
-    const SweepRun& run = runs[it->second.run];
-    const fs::path run_dir = dir / "runs" / run.id;
-    Outcome& outcome = outcomes[run.index];
-    outcome.done = true;
-    outcome.wall_s = std::chrono::duration<double>(Clock::now() - it->second.start).count();
-    running.erase(it);
-    if (WIFEXITED(status)) {
-      outcome.exit_code = WEXITSTATUS(status);
-      outcome.status = StatusOf(outcome.exit_code);
-      if (!Finished(outcome.exit_code)) outcome.reason = ReasonFromLog(run_dir / "iapsim.log");
+  bool submitted = true;
+  if (!pending.empty()) {
+    if (args.slurm) {
+      submitted = RunOnSlurm(state, pending, slurm);
     } else {
-      const int signal = WTERMSIG(status);
-      outcome.exit_code = 128 + signal;
-      outcome.status = "failed";
-      outcome.reason =
-          std::string("killed by signal ") + std::to_string(signal) + " (" + strsignal(signal) + ")";
+      RunLocalPool(state, pending, jobs);
     }
-    if (Finished(outcome.exit_code)) {
-      std::ifstream metrics(run_dir / "metrics.json");
-      outcome.metrics = nlohmann::json::parse(metrics, nullptr, false);
-      if (outcome.metrics.is_discarded()) outcome.metrics = nlohmann::json();
-      if (!spec.keep_bags) fs::remove(run_dir / "run.bag");
-    }
-    WriteJsonAtomically(run_dir / "sweep_run.json", OutcomeJson(run, outcome));
-    ++ended;
-    std::printf("[%zu/%zu] %s %s: %s in %.1f s%s%s\n", ended, runs.size(), run.id.c_str(),
-                Describe(run).c_str(), outcome.status.c_str(), outcome.wall_s,
-                outcome.reason.empty() ? "" : ": ", outcome.reason.c_str());
-    std::fflush(stdout);
   }
   sigaction(SIGINT, &previous_int, nullptr);
   sigaction(SIGTERM, &previous_term, nullptr);
@@ -700,20 +895,76 @@ int Sweep(const SweepArgs& args) {
   const std::vector<std::string> metrics = MetricColumns(spec, outcomes);
   WriteResults(dir, spec, runs, outcomes, metrics);
   WriteSummary(dir, spec, runs, outcomes, metrics);
-  nlohmann::json record = {
-      {"name", spec.name}, {"scenario", spec.scenario}, {"jobs", jobs}, {"swept_keys", SweptKeys(spec)}};
-  for (const SweepRun& run : runs) record["runs"].push_back(OutcomeJson(run, outcomes[run.index]));
-  WriteJsonAtomically(dir / "sweep.json", record);
+  WriteJsonAtomically(dir / "sweep.json", SweepRecord(state, backend));
   if (!SweptKeys(spec).empty() && finished > 0) RunPlotScript(IAPSIM_PLOT_SWEEP, {dir.string()});
 
   std::printf("%zu of %zu runs finished; %s/results.md (a row per run), summary.md (per group), plot_*.png\n",
               finished, runs.size(), dir.string().c_str());
   if (interrupted) {
-    std::printf("interrupted: `iapsim sweep %s --out %s --resume` runs the rest\n", args.file.c_str(),
-                dir.string().c_str());
+    std::printf("interrupted: `iapsim sweep %s --out %s --resume%s` runs the rest\n", args.file.c_str(),
+                dir.string().c_str(), args.slurm ? " --slurm" : "");
     return 130;
   }
-  return finished == runs.size() ? 0 : 1;
+  return submitted && finished == runs.size() ? 0 : 1;
+}
+
+namespace {
+volatile pid_t task_child = 0;
+volatile std::sig_atomic_t task_stopped = 0;
+// a task's SIGTERM (scancel, the time limit) or SIGINT: the run ends its graph cleanly, as in the local pool
+extern "C" void OnTaskSignal(int) {
+  task_stopped = 1;
+  if (task_child > 0) kill(task_child, SIGINT);
+}
+}  // namespace
+
+int SweepTask(const std::string& dir, const std::string& id) {
+  std::ifstream in(fs::path(dir) / "sweep.json");
+  const nlohmann::json sweep = nlohmann::json::parse(in, nullptr, false);
+  if (!sweep.is_object() || !sweep.contains("runs") || !sweep.contains("scenario")) {
+    std::cerr << "iapsim sweep-task: no sweep in '" << dir << "' (no readable sweep.json)" << std::endl;
+    return 2;
+  }
+  const auto entry = std::find_if(sweep["runs"].begin(), sweep["runs"].end(),
+                                  [&](const nlohmann::json& r) { return r.value("id", "") == id; });
+  if (entry == sweep["runs"].end()) {
+    std::cerr << "iapsim sweep-task: no run '" << id << "' in " << dir << "/sweep.json" << std::endl;
+    return 2;
+  }
+  const SweepRun run = RunFromJson(*entry);
+  const fs::path run_dir = fs::path(dir) / "runs" / id;
+  fs::remove_all(run_dir);
+  fs::create_directories(run_dir);
+  struct sigaction action {};
+  action.sa_handler = OnTaskSignal;
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  if (task_stopped || fs::exists(fs::path(dir) / "slurm" / kInterruptedMark)) {
+    const Outcome outcome{true, 130, "interrupted", "the sweep was interrupted before this run started",
+                          0.0,  {}};
+    WriteJsonAtomically(run_dir / "sweep_run.json", OutcomeJson(run, outcome));
+    PrintEnded(1, 1, run, outcome);
+    return outcome.exit_code;
+  }
+  const Clock::time_point start = Clock::now();
+  const pid_t pid = StartRun(sweep["scenario"].get<std::string>(), run, run_dir);
+  if (pid < 0) {
+    std::cerr << "iapsim sweep-task: fork: " << std::strerror(errno) << std::endl;
+    return 1;
+  }
+  task_child = pid;
+  if (task_stopped) kill(pid, SIGINT);  // the signal came between the check and the fork
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) {
+      std::cerr << "iapsim sweep-task: waitpid: " << std::strerror(errno) << std::endl;
+      return 1;
+    }
+  }
+  const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+  const Outcome outcome = EndRun(run, run_dir, status, wall_s, sweep.value("keep_bags", true));
+  PrintEnded(1, 1, run, outcome);
+  return outcome.exit_code;
 }
 
 }  // namespace iapsim::tools

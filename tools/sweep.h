@@ -18,20 +18,34 @@
 //                                        # the per-process and loss counters)
 //   jobs: 2                              # runs at a time (default: the machine's cores; --jobs wins)
 //   keep_bags: true                      # false: a finished run's run.bag is deleted after its evaluation
+//   slurm:                               # with --slurm: one job array, a task per run (flags win)
+//     partition: batch                   # default: the cluster's
+//     time: "00:30:00"                   # a run's time limit, as sbatch takes it; default: the partition's
+//     cpus_per_run: 1
+//     sbatch: [--qos=short]              # any other sbatch arguments
 //
 // A run's id is a hash of its settings (its swept values and seed): stable across invocations and sweep
 // file edits, so `--resume` skips every run already finished (exit 0, or 3: completed with losses) and
 // runs the rest again. A run that fails is reported with its exit code and the reason its log gives, never
 // dropped. Out: DIR/runs/ID/ (the run, and iapsim.log: its output), DIR/results.{csv,md} (a row per run),
 // DIR/summary.{csv,md} (a row per group: mean, p50, p95 of each metric over its seeds, and its failures),
-// DIR/sweep.json (the expanded runs and their outcomes), DIR/plot_KEY.png (each metric against each swept key,
-// tools/plot_sweep.py).
+// DIR/sweep.json (the expanded runs and their outcomes), DIR/plot_KEY.png (each metric against each swept
+// key, tools/plot_sweep.py).
+//
+// With --slurm the runs are the tasks of one Slurm job array (tools/slurm.h) instead of a local pool: each
+// task is `iapsim sweep-task DIR ID`, which runs the run as the pool does and records its outcome in
+// DIR/runs/ID/sweep_run.json, so both give the same tables. DIR (and this program) must be on a file system
+// the cluster's nodes share. The sweep waits for the array, reporting runs as they end; a task that ends
+// without an outcome (time limit, node failure, scancel) is a failed run with the cluster's reason from
+// DIR/slurm/JOB_TASK.out; Ctrl-C cancels the array.
 
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "tools/slurm.h"
 
 namespace iapsim::tools {
 
@@ -55,6 +69,7 @@ struct SweepSpec {
   std::vector<std::string> metrics;  // JSON pointers into metrics.json
   int jobs = 0;                      // 0: not set
   bool keep_bags = true;
+  SlurmOptions slurm;  // `slurm:` (its max_running: jobs)
 };
 
 /// Reads and checks a sweep file. Throws bridge::ConfigError naming the file, line and key.
@@ -79,10 +94,17 @@ struct SweepArgs {
   bool resume = false;                 // out_dir exists: skip its finished runs
   bool list = false;                   // print the runs and exit
   std::vector<std::string> overrides;  // --set for every run, after the sweep's own
+  bool slurm = false;                  // one Slurm job array instead of the local pool
+  std::string partition, time;         // override the sweep's slurm: block
+  int cpus_per_run = 0;                // 0: the sweep's
 };
 
 /// The whole command. Exit codes: 0 every run finished, 1 some failed (the tables say which and why), 2 a bad
 /// sweep file or arguments, 130 interrupted (finished runs are kept for --resume).
 int Sweep(const SweepArgs& args);
+
+/// `iapsim sweep-task DIR ID`: run ID of the sweep in DIR (its sweep.json) in the foreground and record its
+/// outcome, as the local pool does; what each task of a --slurm array runs. Exits with the run's exit code.
+int SweepTask(const std::string& dir, const std::string& id);
 
 }  // namespace iapsim::tools

@@ -1,6 +1,6 @@
 # What the end-to-end test scripts share; source it right after `set -euo pipefail` with the script's
-# arguments BUILD_BIN_DIR SOURCE_DIR: $bin, $src, $iapsim, a scratch folder $work removed on exit, `fail` and
-# `expect_exit`.
+# arguments BUILD_BIN_DIR SOURCE_DIR: $bin, $src, $iapsim, a scratch folder $work removed on exit, `fail`,
+# `expect_exit` and `wait_code`.
 # shellcheck shell=bash
 bin=$1
 src=$2
@@ -15,4 +15,10 @@ expect_exit() {  # CODE TEXT COMMAND...: expects the exit code and TEXT (literal
   set -e
   [ $code -eq "$1" ] || fail "${*:3} exited $code: $(cat "$work/expect.err")"
   grep -qF -- "$2" "$work/expect.err" || fail "${*:3}: $(cat "$work/expect.err")"
+}
+wait_code() {  # PID: waits for that background job and sets $code to its exit code
+  set +e
+  wait "$1"
+  code=$?
+  set -e
 }

@@ -106,6 +106,18 @@ TEST_F(SweepFile, RandomDrawsAreSeededAndWithinTheirLaws) {
   EXPECT_EQ(choices, (std::set<std::string>{"p", "q", "r"}));
 }
 
+TEST_F(SweepFile, SlurmBlockGivesTheArraysOptions) {
+  const SweepSpec spec = ReadSweep(Write("s.yaml",
+                                         "scenario: scenario.yaml\n"
+                                         "slurm: {partition: gpu, time: \"00:05:00\", cpus_per_run: 2,\n"
+                                         "        sbatch: [--qos=short, --exclusive]}\n"));
+  EXPECT_EQ(spec.slurm.partition, "gpu");
+  EXPECT_EQ(spec.slurm.time, "00:05:00");
+  EXPECT_EQ(spec.slurm.cpus_per_task, 2);
+  EXPECT_EQ(spec.slurm.sbatch_args, (std::vector<std::string>{"--qos=short", "--exclusive"}));
+  EXPECT_EQ(ReadSweep(Write("d.yaml", "scenario: scenario.yaml\n")).slurm.cpus_per_task, 1);
+}
+
 TEST_F(SweepFile, MistakesNameTheFileLineAndKey) {
   const struct {
     std::string text, expect;
@@ -121,6 +133,9 @@ TEST_F(SweepFile, MistakesNameTheFileLineAndKey) {
        "'a' is both in the grid and drawn"},
       {"scenario: scenario.yaml\ngrdi: {a: [1]}\n", "grdi"},
       {"scenario: scenario.yaml\njobs: 0\n", "jobs: must be in [1, 1024]"},
+      {"scenario: scenario.yaml\nslurm: {cpus_per_run: 0}\n", "slurm.cpus_per_run"},
+      {"scenario: scenario.yaml\nslurm: {sbatch: [qos=short]}\n", "each starting with -), got 'qos=short'"},
+      {"scenario: scenario.yaml\nslurm: {partiton: a}\n", "partiton"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.text);

@@ -1,0 +1,95 @@
+#!/usr/bin/env bash
+# `iapsim sweep --slurm` on a one-node Slurm cluster the test brings up itself (munge, slurmctld, slurmd on
+# 127.0.0.1, tools/slurm_local_cluster.sh), stopped afterwards by pid (issue 22): the same sweep on the local
+# pool and as a job array gives the same table; a task killed outright is a failed run with its reason, and
+# --resume reruns only it; Ctrl-C cancels the array and leaves nothing running; sbatch's refusal is reported.
+# usage: sweep_slurm_test.sh BUILD_BIN_DIR SOURCE_DIR
+set -euo pipefail
+# shellcheck source=tests/support/script.sh
+source "$(dirname "$0")/support/script.sh"
+cluster=$src/tools/slurm_local_cluster.sh
+trap '"$cluster" stop "$work/cluster"; rm -rf "$work"' EXIT
+cluster_env=$(timeout 60 "$cluster" start "$work/cluster") || fail "the local cluster did not start: $(tail -n 5 "$work"/cluster/*.log)"
+eval "$cluster_env"
+
+# the spiral in the realistic profile (turbulence, noise and model mismatch drawn from the seed) at three
+# mean winds, two seeds each: the tracking errors differ from run to run, and each is deterministic
+cat > "$work/wind.yaml" << EOF
+name: wind
+scenario: $src/configs/regression/three_star_spiral.yaml
+set: {fidelity: realistic, duration_s: 1}
+grid:
+  processes.physics.params.air.wind_W_mps: [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]]
+seeds: [1, 2]
+metrics: [tracking.position_rmse_m.x, tracking.position_rmse_m.z, tracking.attitude_rmse_deg.pitch]
+keep_bags: false
+EOF
+"$iapsim" sweep "$work/wind.yaml" --out "$work/local" --jobs 2 > "$work/local.out" || fail "local: $(cat "$work/local.out")"
+"$iapsim" sweep "$work/wind.yaml" --out "$work/slurm" --slurm > "$work/slurm.out" || fail "slurm: $(cat "$work/slurm.out")"
+grep -q "submitted Slurm job array [0-9]* (6 tasks" "$work/slurm.out" || fail "slurm: $(cat "$work/slurm.out")"
+grep -q "6 of 6 runs finished" "$work/slurm.out" || fail "slurm: $(cat "$work/slurm.out")"
+# the same table but for the wall times; and one whose runs are told apart (not six copies of one number)
+python3 - "$work/local/results.csv" "$work/slurm/results.csv" << 'PY' || fail "the local and Slurm tables differ"
+import csv, sys
+local, slurm = ([{k: v for k, v in row.items() if k != "wall_s"} for row in csv.DictReader(open(f))] for f in sys.argv[1:])
+assert local == slurm, (local, slurm)
+assert len({row["tracking.position_rmse_m.x"] for row in slurm}) == 6, slurm
+PY
+diff "$work/local/summary.csv" "$work/slurm/summary.csv" > "$work/diff" || fail "summaries differ: $(cat "$work/diff")"
+[ -s "$work/slurm/plot_processes.physics.params.air.wind_W_mps.png" ] || fail "no plot: $(ls "$work/slurm")"
+for run in "$work"/slurm/runs/*; do
+  [ ! -e "$run/run.bag" ] || fail "keep_bags: false left $run/run.bag"
+done
+
+# a task killed outright (its sweep-task, SIGKILL) while the other two run: a failed run with the reason, the
+# sweep exits 1, and --resume --slurm runs only that one
+cat > "$work/seeds.yaml" << EOF
+scenario: $src/configs/scenarios/bus_demo.yaml
+set: {duration_s: 3}
+seeds: [1, 2, 3]
+EOF
+"$iapsim" sweep "$work/seeds.yaml" --out "$work/seeds" --slurm > "$work/seeds.out" 2>&1 &
+sweep=$!
+task=""
+for _ in $(seq 300); do
+  task=$(pgrep -f "sweep-task $work/seeds " | head -1) && [ -n "$task" ] && break
+  sleep 0.05
+done
+[ -n "$task" ] || fail "no task started: $(cat "$work/seeds.out")"
+kill -9 "$task"
+wait_code $sweep
+[ $code -eq 1 ] || fail "a sweep with a killed task exited $code: $(cat "$work/seeds.out")"
+grep -q "2 of 3 runs finished" "$work/seeds.out" || fail "killed: $(cat "$work/seeds.out")"
+grep -q ",failed,,,.*ended without recording an outcome" "$work/seeds/results.csv" ||
+  fail "the killed run's row: $(cat "$work/seeds/results.csv")"
+"$iapsim" sweep "$work/seeds.yaml" --out "$work/seeds" --resume --slurm > "$work/seeds2.out" ||
+  fail "resume: $(cat "$work/seeds2.out")"
+grep -q "2 finished before, 1 to run" "$work/seeds2.out" || fail "resume: $(cat "$work/seeds2.out")"
+[ "$(grep -c ',completed,0,' "$work/seeds/results.csv")" -eq 3 ] || fail "results: $(cat "$work/seeds/results.csv")"
+
+# Ctrl-C while the array runs: cancelled, reported as interrupted, nothing left running or queued
+sed -i 's/duration_s: 3/duration_s: 30/' "$work/seeds.yaml"
+"$iapsim" sweep "$work/seeds.yaml" --out "$work/long" --slurm > "$work/long.out" 2>&1 &
+sweep=$!
+for _ in $(seq 300); do
+  pgrep -f "$work/long/runs" > /dev/null && break
+  sleep 0.05
+done
+kill -INT $sweep
+wait_code $sweep
+[ $code -eq 130 ] || fail "an interrupted sweep exited $code: $(cat "$work/long.out")"
+grep -q "cancelling Slurm job" "$work/long.out" || fail "interrupted: $(cat "$work/long.out")"
+[ "$(grep -c ',interrupted,' "$work/long/results.csv")" -eq 3 ] || fail "results: $(cat "$work/long/results.csv")"
+if pgrep -f "$work/long" > /dev/null; then fail "processes of the cancelled sweep are still running"; fi
+[ -z "$(squeue --noheader)" ] || fail "jobs left queued: $(squeue)"
+
+# sbatch refuses: its message, exit 1, and the sweep can be resumed elsewhere
+set +e
+"$iapsim" sweep "$work/seeds.yaml" --out "$work/refused" --slurm --partition no_such_partition > /dev/null 2> "$work/refused.err"
+code=$?
+set -e
+[ $code -eq 1 ] || fail "a refused array exited $code"
+grep -q "sbatch failed .*[Ii]nvalid partition" "$work/refused.err" || fail "refused: $(cat "$work/refused.err")"
+[ -s "$work/refused/sweep.json" ] || fail "a refused sweep cannot be resumed"
+
+echo "sweep_slurm_test: all checks passed"
