@@ -267,10 +267,11 @@ flights:
     monte_carlo: {max: {position_max_m: [1.0, 1.0, 0.001]}}
 EOF
 set +e
-"$iapsim" regress "$work/mc" --monte-carlo 3 --out "$work/mc/out" > "$work/mc.out" 2>&1
+"$iapsim" regress "$work/mc" --monte-carlo 3 --jobs 2 --out "$work/mc/out" > "$work/mc.out" 2>&1
 code=$?
 set -e
 [ $code -eq 1 ] || fail "Monte Carlo regress with a failing bound exited $code: $(cat "$work/mc.out")"
+grep -q "sweep spiral: 3 runs .* 0 finished before, 3 to run, 2 at a time" "$work/mc.out" || fail "draws not on the pool: $(cat "$work/mc.out")"
 grep -q "position_max_m.z p95 .* REGRESSION" "$work/mc.out" || fail "no failed p95 check: $(cat "$work/mc.out")"
 grep -q "position_max_m.x p95 .* ok" "$work/mc.out" || fail "no passed p95 check: $(cat "$work/mc.out")"
 [ -s "$work/mc/out/spiral/monte_carlo_error.png" ] || fail "no band plot: $(cat "$work/mc.out")"
@@ -290,6 +291,20 @@ assert len(set(z)) == 3, z  # each seed draws another vehicle
 masses = {d['processes']['physics']['process']['true_model']['iap/platform/mass_kg']['drawn'] for d in draws}
 assert len(masses) == 3, masses
 " "$work/mc/out" || fail "Monte Carlo statistics"
+# the same --out again: the finished draws are not flown again, the checks are the same
+cp "$work/mc/out/spiral/metrics.json" "$work/mc/first.json"
+set +e
+"$iapsim" regress "$work/mc" --monte-carlo 3 --out "$work/mc/out" > "$work/mc2.out" 2>&1
+set -e
+grep -q "3 finished before, 0 to run" "$work/mc2.out" || fail "draws flown again: $(cat "$work/mc2.out")"
+diff <(grep -v '"plot"' "$work/mc/first.json") <(grep -v '"plot"' "$work/mc/out/spiral/metrics.json") > /dev/null ||
+  fail "the resumed Monte Carlo differs: $(diff "$work/mc/first.json" "$work/mc/out/spiral/metrics.json")"
+expect_exit 2 "--monte-carlo" "$iapsim" regress "$work/mc" --jobs 2 --out "$work/mc/none"
+# other settings in the same --out: the draws are flown again, not taken from the folders of the same names
+set +e
+"$iapsim" regress "$work/mc" --monte-carlo 3 --out "$work/mc/out" --set processes.physics.params.uncertainty.mass=0.1 > "$work/mc3.out" 2>&1
+set -e
+grep -q "0 finished before, 3 to run" "$work/mc3.out" || fail "draws of other settings reused: $(cat "$work/mc3.out")"
 
 # a rendered flight: the scenario's videos and one more asked for with --video, each with its sheet of frames
 "$iapsim" run "$src/configs/scenarios/three_star_stereo.yaml" --duration 0.5 --out "$work/stereo" \

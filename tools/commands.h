@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "tools/sweep.h"
+
 namespace iapsim::tools {
 
 struct RunArgs {
@@ -44,6 +46,7 @@ struct RegressArgs {
   int monte_carlo = 0;                 // draws per flight; 0: each flight once
   bool keep_bags = false;              // Monte Carlo: keep every draw's recording
   std::string fidelity;                // ideal | realistic | both; default both, Monte Carlo realistic
+  SweepExecution execution;            // Monte Carlo: the draws on the local pool (jobs) or on Slurm
 };
 /// Runs every regression flight of DIR/suite.yaml in lockstep, evaluates it, compares the metrics with the
 /// suite's thresholds and prints a table: each flight in the ideal profile against its `max`/`contact_*`

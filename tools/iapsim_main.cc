@@ -113,6 +113,13 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"ideal", "realistic", "both"}));
   regress_cmd->add_flag("--keep-bags", regress.keep_bags,
                         "Monte Carlo: keep each draw's run.bag (by default deleted once evaluated)");
+  regress_cmd
+      ->add_option("--jobs,-j", regress.execution.jobs,
+                   "Monte Carlo: draws at a time (default: the cores; with --slurm: as the cluster allows)")
+      ->check(CLI::Range(1, 1024));
+  regress_cmd->add_flag(
+      "--slurm", regress.execution.slurm,
+      "Monte Carlo: fly the draws of each flight as one Slurm job array (as iapsim sweep --slurm)");
 
   std::string info_bag;
   auto* info_cmd = app.add_subcommand("info", "list a bag's topics, types, counts and rates");

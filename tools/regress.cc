@@ -23,6 +23,7 @@
 #include "tools/commands.h"
 #include "tools/plot_script.h"
 #include "tools/run_evaluation.h"
+#include "tools/sweep.h"
 
 namespace iapsim::tools {
 namespace {
@@ -175,8 +176,7 @@ struct FlightRun {
   nlohmann::json metrics;  // {tracking: ..., contact: ...}
 };
 
-FlightRun Fly(const Flight& flight, const std::vector<std::string>& overrides, const fs::path& run_dir,
-              bool draw) {
+FlightRun Fly(const Flight& flight, const std::vector<std::string>& overrides, const fs::path& run_dir) {
   FlightRun run;
   bridge::LaunchOptions options;
   options.scenario_path = flight.scenario;
@@ -191,16 +191,12 @@ FlightRun Fly(const Flight& flight, const std::vector<std::string>& overrides, c
     return run;
   }
   try {
-    RunEvaluation evaluation = ReadRunEvaluation(bridge::LoadScenario(flight.scenario, overrides));
+    const RunEvaluation evaluation = ReadRunEvaluation(bridge::LoadScenario(flight.scenario, overrides));
     if (evaluation.empty()) {
       run.error = "the scenario has no evaluation section";
       return run;
     }
-    if (draw) {  // a draw's plots and tables are the band plot's and the summary's
-      if (evaluation.tracking) evaluation.tracking->plots = false;
-      if (evaluation.contact) evaluation.contact->plots = false;
-    }
-    run.metrics = EvaluateRun(result.run_dir, evaluation, /*print=*/!draw);
+    run.metrics = EvaluateRun(result.run_dir, evaluation, /*print=*/true);
   } catch (const std::exception& e) {
     run.error = e.what();
   }
@@ -256,7 +252,7 @@ int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::strin
         profile_overrides.insert(profile_overrides.begin() + 1,
                                  "seed=" + std::to_string(flight.realistic_seed));
       }
-      const FlightRun run = Fly(flight, profile_overrides, out_dir / name, false);
+      const FlightRun run = Fly(flight, profile_overrides, out_dir / name);
       nlohmann::json& entry = (*report)[name];
       entry["run_dir"] = run.run_dir;
       entry["fidelity"] = profile;
@@ -277,13 +273,15 @@ int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::strin
   return failures;
 }
 
-// Each flight `draws` times with seeds 1..draws (a draw's bag deleted once evaluated, unless kept; a failed
-// draw keeps it); the monte_carlo bounds hold for the 95th percentile of a
-// metric (an upper bound) or its 5th (a lower bound), every draw must fly, and at least task_success_min of
-// the draws must meet the flight's own contact bounds (its realistic ones when the draws fly realistic).
+// Each flight `draws` times with seeds 1..draws, as a sweep over the seeds (tools/sweep.h) on the local pool
+// or on Slurm, in OUT/FLIGHT/draw-SEED (a finished draw's bag deleted unless kept; a failed draw keeps it; a
+// draw finished by an earlier invocation with the same --out is not flown again); the monte_carlo bounds hold
+// for the 95th percentile of a metric (an upper bound) or its 5th (a lower bound), every draw must fly, and
+// at least task_success_min of the draws must meet the flight's own contact bounds (its realistic ones when
+// the draws fly realistic).
 int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std::string>& overrides,
-                      const std::string& fidelity, int draws, bool keep_bags, const fs::path& out_dir,
-                      nlohmann::json* report, bool* interrupted) {
+                      const std::string& fidelity, int draws, bool keep_bags, const SweepExecution& how,
+                      const fs::path& out_dir, nlohmann::json* report, bool* interrupted) {
   int failures = 0;
   for (const Flight& flight : flights) {
     nlohmann::json& entry = (*report)[flight.name];
@@ -297,22 +295,54 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
     std::copy_if(own.begin(), own.end(), std::back_inserter(task),
                  [](const Bound& bound) { return bound.analysis == "contact"; });
     int task_successes = 0;
-    for (int seed = 1; seed <= draws; ++seed) {
-      std::vector<std::string> draw_overrides = overrides;
-      draw_overrides.push_back("seed=" + std::to_string(seed));
-      const FlightRun run =
-          Fly(flight, draw_overrides, out_dir / flight.name / ("draw-" + std::to_string(seed)), true);
-      if (!run.error.empty()) {
+
+    SweepSpec spec;
+    spec.name = flight.name;
+    spec.scenario = fs::absolute(flight.scenario).lexically_normal().string();
+    spec.overrides = overrides;
+    spec.keep_bags = keep_bags;
+    try {  // a draw's plots are the band plot's
+      const RunEvaluation evaluation = ReadRunEvaluation(bridge::LoadScenario(flight.scenario, overrides));
+      if (evaluation.empty())
+        throw bridge::ConfigError(flight.scenario + ": the scenario has no evaluation section");
+      if (evaluation.tracking) spec.overrides.push_back("evaluation.tracking.plots=false");
+      if (evaluation.contact) spec.overrides.push_back("evaluation.contact.plots=false");
+    } catch (const bridge::ConfigError& e) {  // every draw would fail the same way
+      std::printf("%-28s draws: FAILED: %s\n", flight.name.c_str(), e.what());
+      entry["error"] = e.what();
+      ++failures;
+      continue;
+    }
+    for (int seed = 1; seed <= draws; ++seed) spec.seeds.push_back(static_cast<uint64_t>(seed));
+    std::vector<SweepRun> runs = ExpandSweep(spec);
+    for (SweepRun& run : runs) run.dir = "draw-" + std::to_string(*run.seed);
+    bool stopped = false, submitted = true;
+    const std::vector<SweepOutcome> outcomes =
+        RunSweep(spec, runs, out_dir / flight.name, how, &stopped, &submitted);
+    if (!submitted) {
+      entry["error"] = "the draws could not be submitted to Slurm";
+      ++failures;
+      continue;
+    }
+    for (const SweepRun& run : runs) {
+      const int seed = static_cast<int>(*run.seed);
+      const SweepOutcome& outcome = outcomes[run.index];
+      const std::string run_dir = (out_dir / flight.name / run.dir).string();
+      if (!outcome.Finished()) {
+        const std::string error = outcome.status + (outcome.reason.empty() ? "" : ": " + outcome.reason);
         std::printf("%-28s draw %d/%d (seed %d): FAILED: %s\n", flight.name.c_str(), seed, draws, seed,
-                    run.error.c_str());
-        entry["failed_draws"].push_back({{"seed", seed}, {"error", run.error}, {"run_dir", run.run_dir}});
+                    error.c_str());
+        entry["failed_draws"].push_back({{"seed", seed}, {"error", error}, {"run_dir", run_dir}});
         ++failures;
-        if (run.exit_code == 130) return *interrupted = true, failures;
-        if (run.exit_code == 2) break;  // a bad configuration: every draw would fail the same way
         continue;
       }
-      if (run.metrics.contains("tracking")) {  // a line a draw: its largest errors per axis
-        const nlohmann::json& tracking = run.metrics["tracking"];
+      // the evaluations' sections of its metrics.json (not the processes' counters)
+      nlohmann::json run_metrics = nlohmann::json::object();
+      for (const auto& [key, value] : outcome.metrics.items()) {
+        if (value.is_object() && key != "processes" && key != "losses") run_metrics[key] = value;
+      }
+      if (run_metrics.contains("tracking")) {  // a line a draw: its largest errors per axis
+        const nlohmann::json& tracking = run_metrics["tracking"];
         std::string line;
         using Axes = std::vector<std::string>;
         for (const auto& [section, axes, unit] :
@@ -334,14 +364,13 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
       } else {
         std::printf("%-28s draw %d/%d (seed %d): flown\n", flight.name.c_str(), seed, draws, seed);
       }
-      metrics.push_back(run.metrics);
-      // a recorded flight is hundreds of MB (the spiral's 318): a draw keeps its metrics, CSVs and logs
-      if (!keep_bags) fs::remove(fs::path(run.run_dir) / "run.bag");
+      metrics.push_back(run_metrics);
       if (std::all_of(task.begin(), task.end(),
-                      [&](const Bound& bound) { return Holds(Value(run.metrics, bound), bound); })) {
+                      [&](const Bound& bound) { return Holds(Value(run_metrics, bound), bound); })) {
         ++task_successes;
       }
     }
+    if (stopped) return *interrupted = true, failures;
     entry["draws"] = draws;
     for (int seed = 1; seed <= draws; ++seed) entry["seeds"].push_back(seed);
     if (metrics.empty()) continue;
@@ -403,6 +432,12 @@ int Regress(const RegressArgs& args) {
   // the profile, then the suite's Monte Carlo settings, so the command line's --set wins
   std::vector<std::string> overrides{"mode=lockstep"};
   const std::string monte_carlo_fidelity = args.fidelity.empty() ? "realistic" : args.fidelity;
+  if (args.monte_carlo == 0 && (args.execution.slurm || args.execution.jobs > 0)) {
+    std::cerr << "iapsim: --jobs and --slurm spread the draws of --monte-carlo N; without it the flights fly "
+                 "one after the other"
+              << std::endl;
+    return 2;
+  }
   if (args.monte_carlo > 0) {
     if (args.fidelity == "both") {
       std::cerr << "iapsim: --monte-carlo flies one profile: --fidelity ideal or realistic" << std::endl;
@@ -420,7 +455,7 @@ int Regress(const RegressArgs& args) {
   bool interrupted = false;
   const int failures = args.monte_carlo > 0
                            ? RegressMonteCarlo(flights, overrides, monte_carlo_fidelity, args.monte_carlo,
-                                               args.keep_bags, out_dir, &report, &interrupted)
+                                               args.keep_bags, args.execution, out_dir, &report, &interrupted)
                            : RegressOnce(flights, profiles, overrides, out_dir, &report, &interrupted);
   const fs::path report_path = out_dir / "regress.json";
   std::ofstream(report_path) << report.dump(2) << "\n";

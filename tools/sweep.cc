@@ -128,7 +128,6 @@ std::string StatusOf(int exit_code) {
       return "failed";
   }
 }
-bool Finished(int exit_code) { return exit_code == 0 || exit_code == 3; }
 
 // why a run failed, from the end of its output: `iapsim run`'s own error line if there is one
 std::string ReasonFromLog(const fs::path& log) {
@@ -146,37 +145,25 @@ std::string ReasonFromLog(const fs::path& log) {
 volatile std::sig_atomic_t interrupted = 0;
 extern "C" void OnSweepInterrupt(int) { interrupted = 1; }
 
-struct Outcome {
-  bool done = false;  // the run was started and ended, in this invocation or an earlier one
-  int exit_code = -1;
-  std::string status = "pending";
-  std::string reason;
-  double wall_s = 0.0;
-  nlohmann::json metrics;  // its metrics.json, when it has one
-};
-
-nlohmann::json OutcomeJson(const SweepRun& run, const Outcome& outcome) {
+nlohmann::json OutcomeJson(const SweepRun& run, const SweepOutcome& outcome) {
   nlohmann::json values = nlohmann::json::object();
   for (const auto& [key, value] : run.values) values[key] = value;
-  nlohmann::json entry = {{"index", run.index},
-                          {"id", run.id},
-                          {"group", run.group},
-                          {"values", values},
-                          {"overrides", run.overrides},
-                          {"status", outcome.status},
-                          {"exit_code", outcome.exit_code},
-                          {"reason", outcome.reason},
-                          {"wall_s", outcome.wall_s}};
+  nlohmann::json entry = {{"index", run.index},         {"id", run.id},
+                          {"group", run.group},         {"values", values},
+                          {"overrides", run.overrides}, {"dir", run.dir},
+                          {"status", outcome.status},   {"exit_code", outcome.exit_code},
+                          {"reason", outcome.reason},   {"wall_s", outcome.wall_s}};
   entry["seed"] = run.seed ? nlohmann::json(*run.seed) : nlohmann::json();
   return entry;
 }
 
-// A run's outcome as recorded in RUN/sweep_run.json (an earlier invocation's, for --resume)
-Outcome ReadOutcome(const fs::path& run_dir) {
-  Outcome outcome;
+// A run's outcome as recorded in RUN/sweep_run.json (by its task, or an earlier invocation: --resume)
+SweepOutcome ReadOutcome(const SweepRun& run, const fs::path& run_dir) {
+  SweepOutcome outcome;
   std::ifstream in(run_dir / "sweep_run.json");
   const nlohmann::json entry = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (!entry.is_object() || !entry.contains("exit_code")) return outcome;
+  // a folder named otherwise than by the id (a Monte Carlo draw's) may hold a run of other settings
+  if (!entry.is_object() || !entry.contains("exit_code") || entry.value("id", "") != run.id) return outcome;
   outcome.done = true;
   outcome.exit_code = entry["exit_code"].get<int>();
   outcome.status = entry.value("status", StatusOf(outcome.exit_code));
@@ -232,14 +219,14 @@ std::string Describe(const SweepRun& run) {
 
 // A run that ended with wait status `status`: its outcome from its exit code, its log and its metrics.json,
 // recorded in RUN/sweep_run.json (what --resume, and a --slurm sweep waiting for its tasks, read)
-Outcome EndRun(const SweepRun& run, const fs::path& run_dir, int status, double wall_s, bool keep_bags) {
-  Outcome outcome;
+SweepOutcome EndRun(const SweepRun& run, const fs::path& run_dir, int status, double wall_s, bool keep_bags) {
+  SweepOutcome outcome;
   outcome.done = true;
   outcome.wall_s = wall_s;
   if (WIFEXITED(status)) {
     outcome.exit_code = WEXITSTATUS(status);
     outcome.status = StatusOf(outcome.exit_code);
-    if (!Finished(outcome.exit_code)) outcome.reason = ReasonFromLog(run_dir / "iapsim.log");
+    if (!outcome.Finished()) outcome.reason = ReasonFromLog(run_dir / "iapsim.log");
   } else {
     const int signal = WTERMSIG(status);
     outcome.exit_code = 128 + signal;
@@ -247,7 +234,7 @@ Outcome EndRun(const SweepRun& run, const fs::path& run_dir, int status, double 
     outcome.reason =
         std::string("killed by signal ") + std::to_string(signal) + " (" + strsignal(signal) + ")";
   }
-  if (Finished(outcome.exit_code)) {
+  if (outcome.Finished()) {
     std::ifstream metrics(run_dir / "metrics.json");
     outcome.metrics = nlohmann::json::parse(metrics, nullptr, false);
     if (outcome.metrics.is_discarded()) outcome.metrics = nlohmann::json();
@@ -267,10 +254,11 @@ SweepRun RunFromJson(const nlohmann::json& entry) {
     run.values.emplace_back(key, value.get<std::string>());
   if (entry.at("seed").is_number()) run.seed = entry["seed"].get<uint64_t>();
   run.overrides = entry.at("overrides").get<std::vector<std::string>>();
+  run.dir = entry.value("dir", "runs/" + run.id);
   return run;
 }
 
-void PrintEnded(size_t ended, size_t total, const SweepRun& run, const Outcome& outcome) {
+void PrintEnded(size_t ended, size_t total, const SweepRun& run, const SweepOutcome& outcome) {
   std::printf("[%zu/%zu] %s %s: %s in %.1f s%s%s\n", ended, total, run.id.c_str(), Describe(run).c_str(),
               outcome.status.c_str(), outcome.wall_s, outcome.reason.empty() ? "" : ": ",
               outcome.reason.c_str());
@@ -296,11 +284,11 @@ const std::set<std::string> kSettings = {"/seed", "/duration_s", "/clock_step_s"
 
 // The metric columns: those the sweep names, else every number the finished runs report outside the
 // per-process and loss counters and the settings, in order of first appearance.
-std::vector<std::string> MetricColumns(const SweepSpec& spec, const std::vector<Outcome>& outcomes) {
+std::vector<std::string> MetricColumns(const SweepSpec& spec, const std::vector<SweepOutcome>& outcomes) {
   if (!spec.metrics.empty()) return spec.metrics;
   std::vector<std::string> columns;
   std::set<std::string> seen;
-  for (const Outcome& outcome : outcomes) {
+  for (const SweepOutcome& outcome : outcomes) {
     if (!outcome.metrics.is_object()) continue;
     const nlohmann::json flat = outcome.metrics.flatten();  // items() of a temporary would outlive it
     for (const auto& [pointer, value] : flat.items()) {
@@ -314,7 +302,7 @@ std::vector<std::string> MetricColumns(const SweepSpec& spec, const std::vector<
   return columns;
 }
 
-std::optional<double> MetricValue(const Outcome& outcome, const std::string& pointer) {
+std::optional<double> MetricValue(const SweepOutcome& outcome, const std::string& pointer) {
   if (!outcome.metrics.is_object()) return std::nullopt;
   const nlohmann::json::json_pointer p(pointer);
   if (!outcome.metrics.contains(p) || !outcome.metrics[p].is_number()) return std::nullopt;
@@ -343,7 +331,7 @@ std::string ValueOf(const SweepRun& run, const std::string& key) {
 
 // DIR/results.csv and .md: a row per run
 void WriteResults(const fs::path& dir, const SweepSpec& spec, const std::vector<SweepRun>& runs,
-                  const std::vector<Outcome>& outcomes, const std::vector<std::string>& metrics) {
+                  const std::vector<SweepOutcome>& outcomes, const std::vector<std::string>& metrics) {
   const std::vector<std::string> keys = SweptKeys(spec);
   std::ofstream csv(dir / "results.csv"), md(dir / "results.md");
   std::vector<std::string> header = {"id", "group"};
@@ -361,7 +349,7 @@ void WriteResults(const fs::path& dir, const SweepSpec& spec, const std::vector<
   md << "|\n";
   for (size_t r = 0; r < runs.size(); ++r) {
     const SweepRun& run = runs[r];
-    const Outcome& o = outcomes[r];
+    const SweepOutcome& o = outcomes[r];
     std::vector<std::string> csv_row = {run.id, run.group}, md_row;
     for (const std::string& key : keys) csv_row.push_back(ValueOf(run, key));
     // a sweep without seeds: the scenario's, as the run reports it
@@ -395,7 +383,7 @@ void WriteResults(const fs::path& dir, const SweepSpec& spec, const std::vector<
 // DIR/summary.csv and .md: a row per group (the runs that differ only by seed), each metric's mean, p50 and
 // p95 over the group's finished runs, and its failures with their reasons
 void WriteSummary(const fs::path& dir, const SweepSpec& spec, const std::vector<SweepRun>& runs,
-                  const std::vector<Outcome>& outcomes, const std::vector<std::string>& metrics) {
+                  const std::vector<SweepOutcome>& outcomes, const std::vector<std::string>& metrics) {
   const std::vector<std::string> keys = SweptKeys(spec);
   std::vector<std::string> groups;
   std::map<std::string, std::vector<size_t>> members;
@@ -418,7 +406,7 @@ void WriteSummary(const fs::path& dir, const SweepSpec& spec, const std::vector<
   std::map<std::string, std::map<std::string, std::vector<double>>> values;  // group -> metric -> sorted
   for (const std::string& group : groups) {
     for (const size_t r : members[group]) {
-      if (!Finished(outcomes[r].exit_code) || !outcomes[r].done) continue;
+      if (!outcomes[r].Finished()) continue;
       for (const std::string& m : metrics) {
         if (const auto v = MetricValue(outcomes[r], m)) values[group][m].push_back(*v);
       }
@@ -429,8 +417,8 @@ void WriteSummary(const fs::path& dir, const SweepSpec& spec, const std::vector<
     const SweepRun& first = runs[members[group].front()];
     size_t finished = 0, failed = 0;
     for (const size_t r : members[group]) {
-      finished += outcomes[r].done && Finished(outcomes[r].exit_code);
-      failed += outcomes[r].done && !Finished(outcomes[r].exit_code);
+      finished += outcomes[r].Finished();
+      failed += (outcomes[r].done && !outcomes[r].Finished());
     }
     csv << group;
     for (const std::string& key : keys) csv << "," << CsvField(ValueOf(first, key));
@@ -457,7 +445,7 @@ void WriteSummary(const fs::path& dir, const SweepSpec& spec, const std::vector<
       const SweepRun& first = runs[members[group].front()];
       const std::vector<double>& v = values[group][m];
       size_t failed = 0;
-      for (const size_t r : members[group]) failed += outcomes[r].done && !Finished(outcomes[r].exit_code);
+      for (const size_t r : members[group]) failed += (outcomes[r].done && !outcomes[r].Finished());
       md << "|";
       for (const std::string& key : keys) md << " " << MarkdownField(ValueOf(first, key)) << " |";
       md << " " << members[group].size() << " | " << failed << " |";
@@ -476,7 +464,7 @@ void WriteSummary(const fs::path& dir, const SweepSpec& spec, const std::vector<
   md << "\n## Runs that did not finish\n\n";
   bool any = false;
   for (size_t r = 0; r < runs.size(); ++r) {
-    if (outcomes[r].done && Finished(outcomes[r].exit_code)) continue;
+    if (outcomes[r].Finished()) continue;
     any = true;
     md << "- `" << runs[r].id << "` " << MarkdownField(Describe(runs[r])) << ": " << outcomes[r].status;
     if (outcomes[r].done && outcomes[r].exit_code >= 0) md << " (exit " << outcomes[r].exit_code << ")";
@@ -619,6 +607,7 @@ std::vector<SweepRun> ExpandSweep(const SweepSpec& spec) {
         run.index = runs.size();
         run.seed = seed;
         run.id = Hash48(settings + (seed ? "seed=" + std::to_string(*seed) : std::string()));
+        run.dir = "runs/" + run.id;
         run.overrides = spec.overrides;
         for (const auto& [key, value] : run.values) run.overrides.push_back(key + "=" + value);
         if (seed) run.overrides.push_back("seed=" + std::to_string(*seed));
@@ -636,10 +625,10 @@ struct SweepState {
   const SweepSpec& spec;
   const fs::path& dir;
   const std::vector<SweepRun>& runs;
-  std::vector<Outcome>& outcomes;
+  std::vector<SweepOutcome>& outcomes;
   size_t ended = 0;  // runs done, in earlier invocations too
 
-  void End(const SweepRun& run, Outcome outcome) {
+  void End(const SweepRun& run, SweepOutcome outcome) {
     outcomes[run.index] = std::move(outcome);
     PrintEnded(++ended, runs.size(), run, outcomes[run.index]);
   }
@@ -673,10 +662,11 @@ void RunLocalPool(SweepState& state, const std::vector<size_t>& pending, int job
   while (next < pending.size() || !running.empty()) {
     while (!interrupted && next < pending.size() && static_cast<int>(running.size()) < jobs) {
       const SweepRun& run = state.runs[pending[next++]];
-      const fs::path run_dir = state.dir / "runs" / run.id;
+      const fs::path run_dir = state.dir / run.dir;
       const pid_t pid = StartRun(state.spec.scenario, run, run_dir);
       if (pid < 0) {
-        state.End(run, Outcome{true, 1, "failed", std::string("fork: ") + std::strerror(errno), 0.0, {}});
+        state.End(run,
+                  SweepOutcome{true, 1, "failed", std::string("fork: ") + std::strerror(errno), 0.0, {}});
         continue;
       }
       running[pid] = Running{run.index, Clock::now()};
@@ -697,7 +687,7 @@ void RunLocalPool(SweepState& state, const std::vector<size_t>& pending, int job
     const SweepRun& run = state.runs[it->second.run];
     const double wall_s = std::chrono::duration<double>(Clock::now() - it->second.start).count();
     running.erase(it);
-    state.End(run, EndRun(run, state.dir / "runs" / run.id, status, wall_s, state.spec.keep_bags));
+    state.End(run, EndRun(run, state.dir / run.dir, status, wall_s, state.spec.keep_bags));
   }
 }
 
@@ -729,7 +719,7 @@ bool RunOnSlurm(SweepState& state, const std::vector<size_t>& pending, const Slu
     waiting.erase(std::remove_if(waiting.begin(), waiting.end(),
                                  [&](size_t t) {
                                    const SweepRun& run = state.runs[pending[t]];
-                                   Outcome outcome = ReadOutcome(state.dir / "runs" / run.id);
+                                   SweepOutcome outcome = ReadOutcome(run, state.dir / run.dir);
                                    if (!outcome.done) return false;
                                    state.End(run, std::move(outcome));
                                    return true;
@@ -774,7 +764,7 @@ bool RunOnSlurm(SweepState& state, const std::vector<size_t>& pending, const Slu
       take_outcomes();  // a task records its outcome before it ends
       for (const size_t t : waiting) {
         const SweepRun& run = state.runs[pending[t]];
-        Outcome outcome{true, -1, cancelled ? "interrupted" : "failed", "", 0.0, {}};
+        SweepOutcome outcome{true, -1, cancelled ? "interrupted" : "failed", "", 0.0, {}};
         const fs::path output = TaskOutput(slurm_dir, job, t);
         if (lost) {
           outcome.reason = "lost contact with Slurm: " + unreachable;
@@ -786,7 +776,7 @@ bool RunOnSlurm(SweepState& state, const std::vector<size_t>& pending, const Slu
                            " ended without recording an outcome (killed, out of time, or its node lost)" +
                            (last.empty() ? "" : "; its output ends: " + last);
         }
-        WriteJsonAtomically(state.dir / "runs" / run.id / "sweep_run.json", OutcomeJson(run, outcome));
+        WriteJsonAtomically(state.dir / run.dir / "sweep_run.json", OutcomeJson(run, outcome));
         state.End(run, std::move(outcome));
       }
       return true;
@@ -796,6 +786,63 @@ bool RunOnSlurm(SweepState& state, const std::vector<size_t>& pending, const Slu
 }
 
 }  // namespace
+
+std::vector<SweepOutcome> RunSweep(const SweepSpec& spec, const std::vector<SweepRun>& runs,
+                                   const fs::path& dir, const SweepExecution& how, bool* was_interrupted,
+                                   bool* submitted) {
+  fs::create_directories(dir);
+  std::vector<SweepOutcome> outcomes(runs.size());
+  std::vector<size_t> pending;
+  for (const SweepRun& run : runs) {
+    outcomes[run.index] = ReadOutcome(run, dir / run.dir);
+    if (!outcomes[run.index].Finished()) {
+      outcomes[run.index] = SweepOutcome{};
+      pending.push_back(run.index);
+      fs::remove_all(dir / run.dir);  // what an unfinished earlier attempt left
+      fs::create_directories(dir / run.dir);
+    }
+  }
+  SweepState state{spec, dir, runs, outcomes, runs.size() - pending.size()};
+  const std::string backend = how.slurm ? "slurm" : "local";
+  // written before any run starts: a sweep killed outright can be resumed, and the Slurm tasks read it
+  WriteJsonAtomically(dir / "sweep.json", SweepRecord(state, backend));
+
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int jobs = how.jobs > 0 ? how.jobs : cores;
+  SlurmOptions slurm = how.slurm_options;
+  slurm.max_running = how.jobs;  // on Slurm, a limit only when asked: the cluster decides otherwise
+  std::printf("sweep %s: %zu runs of %s in %s; %zu finished before, %zu to run, ", spec.name.c_str(),
+              runs.size(), spec.scenario.c_str(), dir.string().c_str(), runs.size() - pending.size(),
+              pending.size());
+  if (how.slurm) {
+    std::printf("on Slurm, %d CPU%s each%s\n", slurm.cpus_per_task, slurm.cpus_per_task == 1 ? "" : "s",
+                how.jobs > 0 ? (", " + std::to_string(how.jobs) + " at a time").c_str() : "");
+  } else {
+    std::printf("%d at a time\n", jobs);
+  }
+  std::fflush(stdout);
+
+  struct sigaction action {};
+  action.sa_handler = OnSweepInterrupt;  // no SA_RESTART: waitpid returns at once
+  struct sigaction previous_int {
+  }, previous_term{};
+  sigaction(SIGINT, &action, &previous_int);
+  sigaction(SIGTERM, &action, &previous_term);
+  interrupted = 0;
+  *submitted = true;
+  if (!pending.empty()) {
+    if (how.slurm) {
+      *submitted = RunOnSlurm(state, pending, slurm);
+    } else {
+      RunLocalPool(state, pending, jobs);
+    }
+  }
+  sigaction(SIGINT, &previous_int, nullptr);
+  sigaction(SIGTERM, &previous_term, nullptr);
+  *was_interrupted = interrupted != 0;
+  WriteJsonAtomically(dir / "sweep.json", SweepRecord(state, backend));
+  return outcomes;
+}
 
 int Sweep(const SweepArgs& args) {
   SweepSpec spec;
@@ -834,73 +881,28 @@ int Sweep(const SweepArgs& args) {
               << "' holds a sweep: --resume to finish it, or another --out" << std::endl;
     return 2;
   }
-  fs::create_directories(dir / "runs");
+  fs::create_directories(dir);
   fs::copy_file(args.file, dir / "sweep.yaml", fs::copy_options::overwrite_existing);
-
-  std::vector<Outcome> outcomes(runs.size());
-  std::vector<size_t> pending;
-  for (const SweepRun& run : runs) {
-    outcomes[run.index] = ReadOutcome(dir / "runs" / run.id);
-    if (!(outcomes[run.index].done && Finished(outcomes[run.index].exit_code))) {
-      outcomes[run.index] = Outcome{};
-      pending.push_back(run.index);
-      fs::remove_all(dir / "runs" / run.id);  // what an unfinished earlier attempt left
-      fs::create_directories(dir / "runs" / run.id);
-    }
-  }
-  SweepState state{spec, dir, runs, outcomes, runs.size() - pending.size()};
-  const std::string backend = args.slurm ? "slurm" : "local";
-  // written before any run starts: a sweep killed outright can be resumed, and the Slurm tasks read it
-  WriteJsonAtomically(dir / "sweep.json", SweepRecord(state, backend));
-
-  const int explicit_jobs = args.jobs > 0 ? args.jobs : spec.jobs;
-  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const int jobs = explicit_jobs > 0 ? explicit_jobs : cores;
-  SlurmOptions slurm = spec.slurm;
-  if (!args.partition.empty()) slurm.partition = args.partition;
-  if (!args.time.empty()) slurm.time = args.time;
-  if (args.cpus_per_run > 0) slurm.cpus_per_task = args.cpus_per_run;
-  slurm.max_running = explicit_jobs;  // on Slurm, --jobs only when asked: the cluster decides otherwise
-  std::printf("sweep %s: %zu runs of %s in %s; %zu finished before, %zu to run, ", spec.name.c_str(),
-              runs.size(), spec.scenario.c_str(), dir.string().c_str(), runs.size() - pending.size(),
-              pending.size());
-  if (args.slurm) {
-    std::printf("on Slurm, %d CPU%s each%s\n", slurm.cpus_per_task, slurm.cpus_per_task == 1 ? "" : "s",
-                explicit_jobs > 0 ? (", " + std::to_string(explicit_jobs) + " at a time").c_str() : "");
-  } else {
-    std::printf("%d at a time\n", jobs);
-  }
-  std::fflush(stdout);
-
-  struct sigaction action {};
-  action.sa_handler = OnSweepInterrupt;  // no SA_RESTART: waitpid returns at once
-  struct sigaction previous_int {
-  }, previous_term{};
-  sigaction(SIGINT, &action, &previous_int);
-  sigaction(SIGTERM, &action, &previous_term);
-  interrupted = 0;
-  bool submitted = true;
-  if (!pending.empty()) {
-    if (args.slurm) {
-      submitted = RunOnSlurm(state, pending, slurm);
-    } else {
-      RunLocalPool(state, pending, jobs);
-    }
-  }
-  sigaction(SIGINT, &previous_int, nullptr);
-  sigaction(SIGTERM, &previous_term, nullptr);
+  SweepExecution how;
+  how.slurm = args.slurm;
+  how.jobs = args.jobs > 0 ? args.jobs : spec.jobs;
+  how.slurm_options = spec.slurm;
+  if (!args.partition.empty()) how.slurm_options.partition = args.partition;
+  if (!args.time.empty()) how.slurm_options.time = args.time;
+  if (args.cpus_per_run > 0) how.slurm_options.cpus_per_task = args.cpus_per_run;
+  bool was_interrupted = false, submitted = true;
+  const std::vector<SweepOutcome> outcomes = RunSweep(spec, runs, dir, how, &was_interrupted, &submitted);
 
   size_t finished = 0;
-  for (const Outcome& o : outcomes) finished += o.done && Finished(o.exit_code);
+  for (const SweepOutcome& o : outcomes) finished += o.Finished();
   const std::vector<std::string> metrics = MetricColumns(spec, outcomes);
   WriteResults(dir, spec, runs, outcomes, metrics);
   WriteSummary(dir, spec, runs, outcomes, metrics);
-  WriteJsonAtomically(dir / "sweep.json", SweepRecord(state, backend));
   if (!SweptKeys(spec).empty() && finished > 0) RunPlotScript(IAPSIM_PLOT_SWEEP, {dir.string()});
 
   std::printf("%zu of %zu runs finished; %s/results.md (a row per run), summary.md (per group), plot_*.png\n",
               finished, runs.size(), dir.string().c_str());
-  if (interrupted) {
+  if (was_interrupted) {
     std::printf("interrupted: `iapsim sweep %s --out %s --resume%s` runs the rest\n", args.file.c_str(),
                 dir.string().c_str(), args.slurm ? " --slurm" : "");
     return 130;
@@ -932,7 +934,7 @@ int SweepTask(const std::string& dir, const std::string& id) {
     return 2;
   }
   const SweepRun run = RunFromJson(*entry);
-  const fs::path run_dir = fs::path(dir) / "runs" / id;
+  const fs::path run_dir = fs::path(dir) / run.dir;
   fs::remove_all(run_dir);
   fs::create_directories(run_dir);
   struct sigaction action {};
@@ -940,8 +942,8 @@ int SweepTask(const std::string& dir, const std::string& id) {
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
   if (task_stopped || fs::exists(fs::path(dir) / "slurm" / kInterruptedMark)) {
-    const Outcome outcome{true, 130, "interrupted", "the sweep was interrupted before this run started",
-                          0.0,  {}};
+    const SweepOutcome outcome{true, 130, "interrupted", "the sweep was interrupted before this run started",
+                               0.0,  {}};
     WriteJsonAtomically(run_dir / "sweep_run.json", OutcomeJson(run, outcome));
     PrintEnded(1, 1, run, outcome);
     return outcome.exit_code;
@@ -962,7 +964,7 @@ int SweepTask(const std::string& dir, const std::string& id) {
     }
   }
   const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
-  const Outcome outcome = EndRun(run, run_dir, status, wall_s, sweep.value("keep_bags", true));
+  const SweepOutcome outcome = EndRun(run, run_dir, status, wall_s, sweep.value("keep_bags", true));
   PrintEnded(1, 1, run, outcome);
   return outcome.exit_code;
 }

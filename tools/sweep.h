@@ -40,6 +40,8 @@
 // DIR/slurm/JOB_TASK.out; Ctrl-C cancels the array.
 
 #include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <utility>
@@ -82,10 +84,35 @@ struct SweepRun {
   std::vector<std::pair<std::string, std::string>> values;  // swept key -> value, grid keys then random ones
   std::optional<uint64_t> seed;
   std::vector<std::string> overrides;  // every --set of the run: the sweep's set, values, seed
+  std::string dir;                     // its run directory, relative to the sweep's folder: runs/ID
 };
 
 /// The runs of a sweep: grid points (the last key fastest) x draws x seeds.
 std::vector<SweepRun> ExpandSweep(const SweepSpec& spec);
+
+struct SweepOutcome {
+  bool done = false;               // the run was started and ended, in this invocation or an earlier one
+  int exit_code = -1;              // `iapsim run`'s; -1: none (its Slurm task ended without one)
+  std::string status = "pending";  // completed, completed_with_losses, failed, interrupted, ...
+  std::string reason;              // why it did not finish
+  double wall_s = 0.0;
+  nlohmann::json metrics;  // its metrics.json, when it has one
+  bool Finished() const { return done && (exit_code == 0 || exit_code == 3); }
+};
+
+struct SweepExecution {
+  int jobs = 0;        // at a time: the local pool's size (0: the cores); on Slurm the array's %N (0: none)
+  bool slurm = false;  // one Slurm job array instead of the local pool
+  SlurmOptions slurm_options;
+};
+
+/// Runs `runs` of `spec` (each an `iapsim run` in DIR/RUN.dir) on the local pool or on Slurm, skipping those
+/// DIR already holds finished, and records them in DIR/sweep.json (written first: the Slurm tasks read it);
+/// returns every run's outcome in order. SIGINT/SIGTERM stop the runs cleanly and set `interrupted`;
+/// `submitted` is false when sbatch refused the array (its message printed).
+std::vector<SweepOutcome> RunSweep(const SweepSpec& spec, const std::vector<SweepRun>& runs,
+                                   const std::filesystem::path& dir, const SweepExecution& how,
+                                   bool* interrupted, bool* submitted);
 
 struct SweepArgs {
   std::string file;
