@@ -7,7 +7,6 @@
 #include <map>
 
 namespace iapsim::bridge {
-namespace {
 
 size_t EditDistance(const std::string& a, const std::string& b) {
   std::vector<size_t> row(b.size() + 1);
@@ -23,6 +22,8 @@ size_t EditDistance(const std::string& a, const std::string& b) {
   }
   return row[b.size()];
 }
+
+namespace {
 
 std::string JoinKeys(const std::set<std::string>& keys) {
   std::string out;
@@ -246,7 +247,8 @@ std::string ReadFilePath(YamlMap& map, const std::string& key, const std::string
   map.Required(key, &name);
   const fs::path path(name);
   std::vector<fs::path> candidates{path};
-  if (!path.is_absolute()) candidates = {fs::path(relative_to).parent_path() / path, fs::current_path() / path};
+  if (!path.is_absolute())
+    candidates = {fs::path(relative_to).parent_path() / path, fs::current_path() / path};
   for (const auto& candidate : candidates) {
     std::error_code error;
     if (fs::is_regular_file(candidate, error)) {

@@ -124,6 +124,10 @@ std::string ReadFilePath(YamlMap& map, const std::string& key, const std::string
 /// one (a rate that does not divide the step's rate).
 uint64_t StepsPerPeriod(double rate_hz, double step_s);
 
+/// The edits (insertions, deletions, substitutions) that turn `a` into `b` (Levenshtein): how "did you mean"
+/// picks the keys and commands closest to a mistyped one.
+size_t EditDistance(const std::string& a, const std::string& b);
+
 /// Loads a YAML file; a missing, malformed or oversized (over kMaxYamlFileBytes) file is a ConfigError naming
 /// it (and the line of a syntax error).
 YAML::Node LoadYamlFile(const std::string& path);

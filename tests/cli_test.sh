@@ -6,6 +6,13 @@ set -euo pipefail
 # shellcheck source=tests/support/script.sh
 source "$(dirname "$0")/support/script.sh"
 
+# usage: a mistyped command is answered with the closest ones (exit 2, as any usage error); --version
+expect_exit 2 "'swep' is not a command; did you mean sweep?" "$iapsim" swep x.yaml
+expect_exit 2 "did you mean run or rl?" "$iapsim" rn
+expect_exit 2 "the commands are run, replay," "$iapsim" fly
+expect_exit 2 "scenario is required" "$iapsim" run
+"$iapsim" --version | grep -qx "iapsim [0-9]*\.[0-9]*\.[0-9]*" || fail "--version: $("$iapsim" --version)"
+
 # every subcommand answers --help
 for cmd in run replay info "bag reindex" export video topics echo urdf bench sweep "rl eval" "rl collect"; do
   # shellcheck disable=SC2086  # "rl eval" is a subcommand and its subcommand

@@ -41,6 +41,7 @@ int main(int argc, char** argv) {
   if (argc > 1 && std::string(argv[1]) == "vio") return ExecCompanion("iapsim_vio_offline", argc, argv);
   CLI::App app("iapsim: a multi-process simulator for Integrated Aerial Platforms");
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("iapsim ") + IAPSIM_VERSION);
 
   RunArgs run;
   auto* run_cmd = app.add_subcommand(
@@ -228,6 +229,8 @@ int main(int argc, char** argv) {
   app.add_subcommand(
       "vio", "visual-inertial odometry over a recorded run (seed section VI-G); see iapsim vio --help");
 
+  if (argc > 1 && argv[1][0] != '-' && iapsim::bridge::AnswerUnknownSubcommand(app, "iapsim", argv[1]))
+    return 2;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
