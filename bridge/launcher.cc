@@ -389,12 +389,18 @@ std::string MakeRunDir(const LaunchOptions& options, const Scenario& scenario) {
     for (int i = 2; fs::exists(dir); ++i) dir = base.string() + "-" + std::to_string(i);
   }
   fs::create_directories(dir / "logs");
-  if (options.out_dir.empty()) {
-    // runs/latest -> the newest run, for `iapsim topics` and `iapsim echo`
-    std::error_code ignored;
-    fs::remove(dir.parent_path() / "latest", ignored);
-    fs::create_directory_symlink(dir.filename(), dir.parent_path() / "latest", ignored);
-  }
+  // runs/latest -> the newest run, --out ones included, for `iapsim topics` and `iapsim echo` (relative
+  // when the run is in runs/, so that the folder can move)
+  std::error_code ignored;
+  const fs::path runs = "runs";
+  fs::create_directories(runs, ignored);
+  const fs::path absolute = fs::absolute(dir).lexically_normal();
+  const fs::path target =
+      absolute.parent_path() == fs::absolute(runs).lexically_normal() ? absolute.filename() : absolute;
+  fs::remove(runs / "latest", ignored);
+  fs::create_directory_symlink(target, runs / "latest", ignored);
+  // RUN/launcher.pid: while that process lives the graph runs (the live commands give up once it is gone)
+  std::ofstream(dir / "launcher.pid") << getpid() << "\n";
   return dir.string();
 }
 

@@ -207,6 +207,11 @@ set -e
 [ $code -eq 0 ] || fail "echo exited $code (124: timed out): $(cat "$work/echo.err"); the run said: $(cat "$work/live.out")"
 [ "$(grep -c '^---' "$work/echo.out")" -eq 2 ] || fail "echo: $(cat "$work/echo.out")"
 grep -q "frame_id: W" "$work/echo.out" || fail "echo: $(cat "$work/echo.out")"
+# runs/latest names the newest run, an --out one too
+[ "$(readlink runs/latest)" = "$(realpath "$work/live")" ] || fail "runs/latest -> $(readlink runs/latest), not $work/live"
+# an echo of a topic nobody publishes gives up once the run is over
+"$iapsim" echo /no/such/topic --run "$work/live" > /dev/null 2> "$work/echo_wait.err" &
+echo_wait=$!
 
 kill -TERM $launcher
 start=$(date +%s%N)
@@ -221,6 +226,12 @@ elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
 [ $elapsed_ms -lt 10000 ] || fail "SIGTERM: stopping took $elapsed_ms ms"
 if pgrep -f -- "$work/live" > /dev/null; then fail "processes left behind: $(pgrep -af -- "$work/live")"; fi
 "$iapsim" info "$work/live/run.bag" > /dev/null || fail "the stopped run's bag is not readable"
+for _ in $(seq 50); do kill -0 $echo_wait 2> /dev/null || break; sleep 0.1; done
+if kill -0 $echo_wait 2> /dev/null; then kill $echo_wait; fail "echo still waits 5 s after the run ended"; fi
+wait_code $echo_wait
+[ $code -eq 1 ] || fail "echo of a run that ended exited $code: $(cat "$work/echo_wait.err")"
+grep -q "the run in $work/live has ended" "$work/echo_wait.err" || fail "echo: $(cat "$work/echo_wait.err")"
+expect_exit 1 "has ended" "$iapsim" echo /iap/state --run "$work/live"
 
 # a tracked flight: `run` evaluates it, `evaluate` recomputes its metrics and plots, `regress` rejects a bad suite
 "$iapsim" run "$src/configs/regression/three_star_spiral.yaml" --duration 2 --out "$work/spiral" \

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -129,6 +130,18 @@ std::unique_ptr<Bus> InspectorBus(const std::string& run_dir) {
   // RUN/secret: readable by the user who started the run
   return std::make_unique<Bus>(
       ObserverBusOptions(scenario, "iapsim-cli-" + std::to_string(getpid()), ReadRunSecret(run_dir)));
+}
+
+// Why no graph runs in `run_dir` any more (its metrics.json is written: it ended; its launcher is gone: it
+// was killed), or empty while it may still run.
+std::string RunGone(const std::string& run_dir) {
+  if (access((run_dir + "/metrics.json").c_str(), F_OK) == 0) return "the run in " + run_dir + " has ended";
+  std::ifstream in(run_dir + "/launcher.pid");
+  pid_t pid = 0;
+  if (in >> pid && pid > 0 && kill(pid, 0) != 0 && errno == ESRCH) {
+    return "nothing runs in " + run_dir + " (its launcher, pid " + std::to_string(pid) + ", is gone)";
+  }
+  return "";
 }
 
 double Seconds(int64_t ns) { return static_cast<double>(ns) * 1e-9; }
@@ -303,6 +316,10 @@ int Export(const ExportArgs& args) {
 
 int Topics(const LiveArgs& args) {
   auto bus = InspectorBus(args.run_dir);
+  if (const std::string gone = RunGone(args.run_dir); !gone.empty()) {
+    std::fprintf(stderr, "iapsim topics: %s\n", gone.c_str());
+    return 1;
+  }
   struct Seen {
     std::string datatype;
     std::string publisher;
@@ -332,6 +349,10 @@ int Topics(const LiveArgs& args) {
 
 int Echo(const LiveArgs& args) {
   auto bus = InspectorBus(args.run_dir);
+  if (const std::string gone = RunGone(args.run_dir); !gone.empty()) {
+    std::fprintf(stderr, "iapsim echo: %s\n", gone.c_str());
+    return 1;
+  }
   long printed = 0;
   bus->SubscribeRaw(args.topic, [&](const uint8_t* data, size_t size, const MessageInfo& info) {
     if (info.topic != args.topic || (args.count >= 0 && printed >= args.count)) return;
@@ -348,7 +369,17 @@ int Echo(const LiveArgs& args) {
   struct sigaction action {};
   action.sa_handler = OnInterrupt;
   sigaction(SIGINT, &action, nullptr);
-  while (!interrupted && (args.count < 0 || printed < args.count)) bus->Spin(std::chrono::milliseconds(50));
+  // the run may end (or be killed) while we listen: looked at twice a second
+  auto next_look = std::chrono::steady_clock::now();
+  while (!interrupted && (args.count < 0 || printed < args.count)) {
+    bus->Spin(std::chrono::milliseconds(50));
+    if (std::chrono::steady_clock::now() < next_look) continue;
+    next_look += std::chrono::milliseconds(500);
+    if (const std::string gone = RunGone(args.run_dir); !gone.empty()) {
+      std::fprintf(stderr, "iapsim echo: %s%s\n", gone.c_str(), printed == 0 ? " before a message came" : "");
+      return printed == 0 ? 1 : 0;
+    }
+  }
   return 0;
 }
 
