@@ -25,6 +25,18 @@ inline int AnswerParseError(const CLI::App& app, const CLI::ParseError& error) {
   return 2;
 }
 
+/// --help shows every option's default (always_capture_default) but where it says nothing (an empty list) or
+/// where the description says it better (the 0 or -1 that stands for "the cores" or "until Ctrl-C").
+inline void HideEmptyDefaults(CLI::App& app) {
+  for (CLI::Option* option : app.get_options()) {
+    const std::string shown = option->get_default_str();
+    if (shown == "[]" || option->get_description().find("(default") != std::string::npos) {
+      option->default_str("");
+    }
+  }
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) HideEmptyDefaults(*sub);
+}
+
 /// When `word`, the first argument of `program`, names no subcommand of `app` (a typo, say): says so on
 /// stderr with the closest listed subcommands ("did you mean"), or all of them, and returns true: the caller
 /// exits 2.

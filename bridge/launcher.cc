@@ -182,7 +182,8 @@ class Supervisor {
         children_(std::move(children)),
         server_(server),
         log_(std::move(log)),
-        progress_(progress && isatty(STDERR_FILENO)) {}
+        progress_(progress && isatty(STDERR_FILENO)),
+        plain_progress_(progress && !isatty(STDERR_FILENO)) {}
 
   // Returns the failure message, empty when the run completed.
   std::string Run() {
@@ -299,6 +300,7 @@ class Supervisor {
       }
       running_ = true;
       running_since_ = now;
+      last_progress_ = now;
       log_->info("all {} processes ready; clock started", children_.size());
       return;
     }
@@ -352,30 +354,38 @@ class Supervisor {
     }
   }
 
+  // On a terminal a line redrawn 4 times a second; elsewhere (a CI log, a file) a plain line every 5 s, so
+  // that a long run shows it is alive and when it will end.
   void ShowProgress() {
-    if (!progress_ || !running_) return;
+    if (!(progress_ || plain_progress_) || !running_ || stopping_) return;
     const auto now = Clock::now();
-    if (now - last_progress_ < milliseconds(250)) return;
+    if (now - last_progress_ < (progress_ ? milliseconds(250) : milliseconds(5000))) return;
     last_progress_ = now;
     const Child* owner = nullptr;
     for (const auto& c : children_) {
       if (c.name == scenario_.clock_owner) owner = &c;
     }
     const double sim_s = owner ? static_cast<double>(owner->sim_ns) * 1e-9 : 0.0;
+    const double factor = sim_s / std::max(1e-9, wall_s());
+    if (plain_progress_) {
+      std::fprintf(stderr, "iapsim run: t = %.1f of %.1f s, %.2fx real time, about %.0f s to go\n", sim_s,
+                   scenario_.duration_s, factor, factor > 0 ? (scenario_.duration_s - sim_s) / factor : 0.0);
+      return;
+    }
     std::string health;
     for (const auto& c : children_) {
       const bool late = now - c.last_heartbeat > std::chrono::duration<double>(c.hang_timeout_s / 2);
       health += " " + c.name + (c.exited ? ":exited" : late ? ":slow" : ":ok");
     }
-    std::fprintf(stderr, "\33[2K\r t = %.3f / %.3f s  x%.2f |%s", sim_s, scenario_.duration_s,
-                 sim_s / std::max(1e-9, wall_s()), health.c_str());
+    std::fprintf(stderr, "\33[2K\r t = %.3f / %.3f s  x%.2f |%s", sim_s, scenario_.duration_s, factor,
+                 health.c_str());
   }
 
   const Scenario& scenario_;
   std::vector<Child> children_;
   ControlServer& server_;
   std::shared_ptr<spdlog::logger> log_;
-  bool progress_;
+  bool progress_, plain_progress_;
   Clock::time_point started_, running_since_, done_at_, last_progress_;
   bool running_ = false, stopping_ = false, completed_ = false, interrupted_ = false;
   std::string failure_;

@@ -22,7 +22,7 @@ struct LaunchOptions {
   std::vector<std::string> overrides;  // "key.path=value"
   std::string out_dir;                 // empty: runs/<name>-<UTC time>
   std::string bin_dir;                 // where process executables live
-  bool progress = false;               // one-line progress on stderr (when it is a terminal)
+  bool progress = false;  // progress on stderr: a line redrawn on a terminal, else a plain line every 5 s
   // validate the scenario and every process's params (each process's --check), then return without a run
   // directory or a process started
   bool check_only = false;

@@ -16,8 +16,12 @@ expect_exit 2 "scenario is required" "$iapsim" run
 # every subcommand answers --help
 for cmd in run replay info "bag reindex" export video topics echo urdf bench sweep "rl eval" "rl collect"; do
   # shellcheck disable=SC2086  # "rl eval" is a subcommand and its subcommand
-  "$iapsim" $cmd --help > /dev/null || fail "$cmd --help"
+  "$iapsim" $cmd --help > "$work/help.out" || fail "$cmd --help"
+  case $cmd in rl*) ;; *) grep -q "^Examples:" "$work/help.out" || fail "$cmd --help shows no examples" ;; esac
 done
+# and the defaults
+"$iapsim" topics --help | grep -q -- "--listen FLOAT=1 " || fail "topics --help shows no default: $("$iapsim" topics --help)"
+if "$iapsim" sweep --help | grep -q "=0"; then fail "sweep --help shows a 0 that stands for 'not set': $("$iapsim" sweep --help)"; fi
 
 # a short lockstep run with a complete run directory
 "$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --duration 1 --seed 3 --out "$work/run" > "$work/run.out"
@@ -187,6 +191,12 @@ set -e
 [ $code_check -eq 2 ] || fail "run --check of a bad scenario exited $code_check"
 [ $code_usage -eq 2 ] || fail "an unknown option exited $code_usage"
 [ $code_none -eq 2 ] || fail "iapsim without a command exited $code_none"
+
+# output that is not a terminal (a CI log): a plain progress line every 5 s, with the time still to go
+"$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --mode realtime --duration 6 --out "$work/slow" \
+  > "$work/slow.out" 2>&1 || fail "realtime run: $(cat "$work/slow.out")"
+grep -Eq "^iapsim run: t = [0-9.]+ of 6.0 s, [0-9.]+x real time, about [0-9]+ s to go$" "$work/slow.out" ||
+  fail "no progress line: $(cat "$work/slow.out")"
 
 # a realtime run: inspect it live, then stop it with SIGTERM
 "$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --mode realtime --duration 60 --out "$work/live" \

@@ -42,10 +42,15 @@ int main(int argc, char** argv) {
   CLI::App app("iapsim: a multi-process simulator for Integrated Aerial Platforms");
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("iapsim ") + IAPSIM_VERSION);
+  app.option_defaults()->always_capture_default();  // every --help shows each option's default
 
   RunArgs run;
   auto* run_cmd = app.add_subcommand(
       "run", "run a scenario: start its process graph, supervise it, write a run directory");
+  run_cmd->footer(
+      "Examples:\n  iapsim run configs/regression/three_star_spiral.yaml\n  iapsim run "
+      "configs/scenarios/bus_demo.yaml --mode realtime --duration 10 --out runs/demo\n  iapsim run "
+      "configs/scenarios/three_star_stereo.yaml --set clock.step_s=0.002 --check");
   run_cmd->add_option("scenario", run.scenario, "scenario YAML")->required()->check(CLI::ExistingFile);
   run_cmd->add_option("--out", run.out_dir, "run directory (default runs/<name>-<UTC time>)");
   run_cmd->add_option("--mode", run.mode, "lockstep, fast or realtime")
@@ -63,6 +68,9 @@ int main(int argc, char** argv) {
   ReplayArgs replay;
   auto* replay_cmd = app.add_subcommand(
       "replay", "play a command log (topics of a bag, or a TUM / CSV pose file) into a run of a scenario");
+  replay_cmd->footer(
+      "Examples:\n  iapsim replay runs/latest/run.bag --scenario configs/scenarios/bus_demo.yaml --topics "
+      "/iap/cmd");
   replay_cmd->add_option("log", replay.log, "bag, or TUM (.tum, .txt) / CSV (.csv) pose file")
       ->required()
       ->check(CLI::ExistingFile);
@@ -88,6 +96,7 @@ int main(int argc, char** argv) {
 
   std::string evaluate_run;
   auto* evaluate_cmd = app.add_subcommand("evaluate", "recompute a run's tracking metrics and plots");
+  evaluate_cmd->footer("Examples:\n  iapsim evaluate runs/latest");
   evaluate_cmd->add_option("run_dir", evaluate_run, "run directory")
       ->required()
       ->check(CLI::ExistingDirectory);
@@ -96,6 +105,9 @@ int main(int argc, char** argv) {
   auto* regress_cmd = app.add_subcommand(
       "regress",
       "run the regression flights of a suite, compare with its thresholds, exit 1 on a regression");
+  regress_cmd->footer(
+      "Examples:\n  iapsim regress\n  iapsim regress --only three_star_spiral --fidelity realistic\n  iapsim "
+      "regress --monte-carlo 10 --jobs 2 --out runs/mc");
   regress_cmd
       ->add_option("suite_dir", regress.suite_dir, "folder with suite.yaml (default configs/regression)")
       ->check(CLI::ExistingDirectory);
@@ -104,9 +116,10 @@ int main(int argc, char** argv) {
   regress_cmd->add_option("--set", regress.overrides,
                           "override a scenario key of every flight: KEY=VALUE (repeatable)");
   regress_cmd
-      ->add_option(
-          "--monte-carlo", regress.monte_carlo,
-          "fly each flight N times (seeds 1..N) with the suite's monte_carlo keys; check percentiles")
+      ->add_option("--monte-carlo", regress.monte_carlo,
+                   "fly each flight N times (seeds 1..N) with the suite's monte_carlo keys; check "
+                   "percentiles (default: "
+                   "each flight once)")
       ->check(CLI::Range(1, 100000));
   regress_cmd
       ->add_option("--fidelity", regress.fidelity,
@@ -124,6 +137,7 @@ int main(int argc, char** argv) {
 
   std::string info_bag;
   auto* info_cmd = app.add_subcommand("info", "list a bag's topics, types, counts and rates");
+  info_cmd->footer("Examples:\n  iapsim info runs/latest/run.bag");
   info_cmd->add_option("bag", info_bag, "bag file")->required()->check(CLI::ExistingFile);
 
   ReindexArgs reindex;
@@ -132,6 +146,7 @@ int main(int argc, char** argv) {
   auto* reindex_cmd = bag_cmd->add_subcommand(
       "reindex",
       "write the index of a bag its writer did not close (a killed recorder's), from its whole chunks");
+  reindex_cmd->footer("Examples:\n  iapsim bag reindex runs/latest/run.bag");
   reindex_cmd->add_option("bag", reindex.bag, "bag file")->required()->check(CLI::ExistingFile);
   reindex_cmd->add_option(
       "-o,--output", reindex.output,
@@ -140,6 +155,7 @@ int main(int argc, char** argv) {
 
   VideoArgs video;
   auto* video_cmd = app.add_subcommand("video", "an MP4 and a contact sheet of a camera's images in a bag");
+  video_cmd->footer("Examples:\n  iapsim video runs/latest/run.bag iap/platform/chase -o chase.mp4");
   video_cmd->add_option("bag", video.bag, "bag file")->required()->check(CLI::ExistingFile);
   video_cmd->add_option("camera", video.camera, "the eye, e.g. iap/sub1/stereo/left, or its image topic")
       ->required();
@@ -148,6 +164,8 @@ int main(int argc, char** argv) {
 
   ExportArgs exp;
   auto* export_cmd = app.add_subcommand("export", "write one topic of a bag as CSV or as a TUM trajectory");
+  export_cmd->footer(
+      "Examples:\n  iapsim export runs/latest/run.bag --topic /iap/odometry --format tum -o odometry.tum");
   export_cmd->add_option("bag", exp.bag, "bag file")->required()->check(CLI::ExistingFile);
   export_cmd->add_option("--topic", exp.topic, "topic to export")->required();
   export_cmd->add_option("--format", exp.format, "csv or tum")->check(CLI::IsMember({"csv", "tum"}));
@@ -157,6 +175,7 @@ int main(int argc, char** argv) {
 
   LiveArgs topics;
   auto* topics_cmd = app.add_subcommand("topics", "list the topics of a running graph");
+  topics_cmd->footer("Examples:\n  iapsim topics\n  iapsim topics --run runs/demo --listen 2");
   topics_cmd->add_option("--run", topics.run_dir, "run directory of the running graph (default runs/latest)");
   topics_cmd->add_option("--listen", topics.listen_s, "seconds to listen");
 
@@ -165,6 +184,10 @@ int main(int argc, char** argv) {
       "sweep",
       "run a scenario over a grid or random draws of its keys and over seeds, N runs at a time, and "
       "tabulate their metrics (exit 1 if a run failed)");
+  sweep_cmd->footer(
+      "Examples:\n  iapsim sweep configs/sweeps/spiral_wind.yaml --jobs 2 --out sweeps/wind\n  iapsim sweep "
+      "configs/sweeps/spiral_wind.yaml --out sweeps/wind --resume\n  iapsim sweep "
+      "configs/sweeps/spiral_wind.yaml --slurm --partition batch --time 00:30:00");
   sweep_cmd->add_option("sweep", sweep.file, "sweep YAML (tools/sweep.h, README)")
       ->required()
       ->check(CLI::ExistingFile);
@@ -193,6 +216,7 @@ int main(int argc, char** argv) {
 
   LiveArgs echo;
   auto* echo_cmd = app.add_subcommand("echo", "print the messages of a topic of a running graph as YAML");
+  echo_cmd->footer("Examples:\n  iapsim echo /iap/odometry -n 1\n  iapsim echo /iap/state --run runs/demo");
   echo_cmd->add_option("topic", echo.topic, "topic")->required();
   echo_cmd->add_option("--run", echo.run_dir, "run directory of the running graph (default runs/latest)");
   echo_cmd->add_option("-n,--count", echo.count, "stop after this many messages (default: until Ctrl-C)");
@@ -200,11 +224,13 @@ int main(int argc, char** argv) {
   std::string urdf_vehicle, urdf_output;
   auto* urdf_cmd =
       app.add_subcommand("urdf", "write the URDF of a vehicle description (configs/vehicles/*.yaml)");
+  urdf_cmd->footer("Examples:\n  iapsim urdf configs/vehicles/three_star.yaml -o three_star.urdf");
   urdf_cmd->add_option("vehicle", urdf_vehicle, "vehicle YAML")->required()->check(CLI::ExistingFile);
   urdf_cmd->add_option("-o,--output", urdf_output, "output file (default: standard output)");
 
   BenchArgs bench;
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
+  bench_cmd->footer("Examples:\n  iapsim bench physics\n  iapsim bench all --json bench.json");
   bench_cmd
       ->add_option("what", bench.what, "bus, physics, render, record, launch, fidelity, rl, sweep or all")
       ->check(
@@ -229,6 +255,9 @@ int main(int argc, char** argv) {
   app.add_subcommand(
       "vio", "visual-inertial odometry over a recorded run (seed section VI-G); see iapsim vio --help");
 
+  iapsim::bridge::HideEmptyDefaults(app);
+  // after the subcommands, which would otherwise take it as theirs
+  app.footer("Examples:\n  iapsim run configs/regression/three_star_spiral.yaml\n  iapsim COMMAND --help");
   if (argc > 1 && argv[1][0] != '-' && iapsim::bridge::AnswerUnknownSubcommand(app, "iapsim", argv[1]))
     return 2;
   try {
