@@ -14,6 +14,10 @@ namespace {
 
 constexpr char kZapDomain[] = "iapsim";
 
+// tcp may leave the host: there the channel is CURVE with the run's keys (encrypted; the secret never
+// travels), elsewhere PLAIN, which names each process (an abstract unix socket never leaves the host)
+bool Encrypted(const std::string& endpoint) { return endpoint.rfind("tcp://", 0) == 0; }
+
 std::string ToString(const zmq::message_t& frame) {
   return std::string(static_cast<const char*>(frame.data()), frame.size());
 }
@@ -41,8 +45,20 @@ ControlClient::ControlClient(const std::string& endpoint, const std::string& pro
                              const std::string& secret)
     : impl_(std::make_unique<Impl>()) {
   impl_->socket.set(zmq::sockopt::routing_id, process);
-  impl_->socket.set(zmq::sockopt::plain_username, process);
-  impl_->socket.set(zmq::sockopt::plain_password, secret);
+  if (Encrypted(endpoint)) {
+    try {
+      const internal::CurveKeys keys = internal::RunCurveKeys(secret);
+      impl_->socket.set(zmq::sockopt::curve_serverkey, keys.server_public);
+      impl_->socket.set(zmq::sockopt::curve_publickey, keys.client_public);
+      impl_->socket.set(zmq::sockopt::curve_secretkey, keys.client_secret);
+    } catch (const std::invalid_argument& e) {
+      throw BusError("process '" + process + "': " + e.what() +
+                     " (IAPSIM_RUN_SECRET, or RUN/secret through --run-dir)");
+    }
+  } else {
+    impl_->socket.set(zmq::sockopt::plain_username, process);
+    impl_->socket.set(zmq::sockopt::plain_password, secret);
+  }
   impl_->socket.set(zmq::sockopt::linger, 1000);  // a final report still leaves after close
   impl_->socket.set(zmq::sockopt::reconnect_ivl, 10);
   try {
@@ -66,8 +82,16 @@ std::optional<ControlMessage> ControlClient::Receive(std::chrono::milliseconds t
 }
 
 struct ControlServer::Impl {
-  explicit Impl(const std::string& secret, const std::vector<std::string>& processes)
-      : gate(context, [secret, processes](const internal::ZapRequest& request) {
+  // curve_keys: the run's (tcp), or none (PLAIN)
+  Impl(const std::string& secret, const std::vector<std::string>& processes,
+       const std::optional<internal::CurveKeys>& curve_keys)
+      : gate(context, [secret, processes, curve_keys](const internal::ZapRequest& request) {
+          if (curve_keys) {
+            // CURVE: only a holder of the run's secret has the client key; its name is its routing id
+            const bool run_key = request.mechanism == "CURVE" && request.credentials.size() == 1 &&
+                                 request.credentials[0] == curve_keys->client_public_raw;
+            return run_key ? std::string() : std::string("a peer without the run's keys");
+          }
           // PLAIN: the user name is the process's name, the password the run's secret
           const std::vector<std::string>& credentials = request.credentials;
           if (request.mechanism != "PLAIN" || credentials.size() != 2)
@@ -85,10 +109,17 @@ struct ControlServer::Impl {
 
 ControlServer::ControlServer(const std::string& endpoint, const std::string& secret,
                              const std::vector<std::string>& processes)
-    : impl_(std::make_unique<Impl>(secret, processes)) {
+    : impl_(std::make_unique<Impl>(
+          secret, processes,
+          Encrypted(endpoint) ? std::optional(internal::RunCurveKeys(secret)) : std::nullopt)) {
   impl_->socket.set(zmq::sockopt::linger, 0);
   impl_->socket.set(zmq::sockopt::router_mandatory, 0);  // a process that already exited is not an error
-  impl_->socket.set(zmq::sockopt::plain_server, 1);
+  if (Encrypted(endpoint)) {
+    impl_->socket.set(zmq::sockopt::curve_server, 1);
+    impl_->socket.set(zmq::sockopt::curve_secretkey, internal::RunCurveKeys(secret).server_secret);
+  } else {
+    impl_->socket.set(zmq::sockopt::plain_server, 1);
+  }
   impl_->socket.set(zmq::sockopt::zap_domain, kZapDomain);
   impl_->gate.Watch(impl_->socket);
   try {

@@ -3,12 +3,16 @@
 // the data bus so that supervision works whatever the data topics do.
 //
 // Process -> launcher: hello (bus bound), ready (handshake done), heartbeat <sim_ns>, done (clock owner
-// finished the run), error <text>, bye <json report>. Launcher -> process: start, stop.
+// finished the run), error <text>, bye <json report>. Launcher -> process: start, stop, alive (to processes
+// started elsewhere, which have no PR_SET_PDEATHSIG to follow the launcher: one that hears nothing for its
+// hang_timeout_s stops).
 //
 // Only the run's processes get in: a client authenticates with ZeroMQ's PLAIN mechanism (user name: its
 // process name, password: the run's secret, bridge/run_secret.h), checked by the launcher's ZAP handler
 // (ZeroMQ RFC 27) before a single message passes. A peer with another secret, another name or no
 // credentials at all is refused at the handshake, counted and described (ControlServer::TakeRefusals).
+// Over tcp, which may leave the host, the channel is CURVE with the run's keys instead (bridge/bus.h):
+// encrypted, the secret never on the wire, a process's name its ZeroMQ routing id.
 
 #include <chrono>
 #include <cstdint>

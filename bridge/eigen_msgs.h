@@ -40,7 +40,9 @@ inline geometry_msgs::Quaternion ToQuaternionMsg(const Eigen::Quaterniond& q) {
 inline Eigen::Vector3d FromMsg(const geometry_msgs::Vector3& m) { return Eigen::Vector3d(m.x, m.y, m.z); }
 inline Eigen::Vector3d FromMsg(const geometry_msgs::Point& m) { return Eigen::Vector3d(m.x, m.y, m.z); }
 /// Not normalised: a caller that needs a rotation checks the norm (a bad norm is bad input, not noise).
-inline Eigen::Quaterniond FromMsg(const geometry_msgs::Quaternion& m) { return Eigen::Quaterniond(m.w, m.x, m.y, m.z); }
+inline Eigen::Quaterniond FromMsg(const geometry_msgs::Quaternion& m) {
+  return Eigen::Quaterniond(m.w, m.x, m.y, m.z);
+}
 
 inline ros::Time ToRosTime(int64_t ns) {
   ros::Time t;

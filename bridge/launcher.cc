@@ -92,6 +92,9 @@ std::string Trimmed(std::string text) {
   return text;
 }
 
+// how often the launcher tells processes started elsewhere that it is still there
+constexpr auto kAlivePeriod = milliseconds(200);
+
 std::string DescribeExit(int status) {
   if (WIFEXITED(status)) return "exited with code " + std::to_string(WEXITSTATUS(status));
   if (WIFSIGNALED(status)) {
@@ -105,6 +108,9 @@ struct Child {
   std::string name;
   std::string log_path;
   pid_t pid = -1;
+  // started elsewhere (host: external): no pid, its end is its bye; `command` is what starts it
+  bool external = false;
+  std::string command;
   bool exited = false;
   int status = 0;
   bool ready = false;
@@ -162,6 +168,13 @@ pid_t Spawn(std::vector<std::string> args, std::vector<std::string> env, const s
   return pid;
 }
 
+// How a process ended, for metrics.json: its exit status, or for one started elsewhere whether it said bye.
+std::string DescribeEnd(const Child& child) {
+  if (!child.external) return DescribeExit(child.status);
+  return child.said_bye ? "said bye (started elsewhere)"
+                        : "not heard from after the stop (started elsewhere)";
+}
+
 std::string LastLines(const std::string& path, size_t count) {
   std::ifstream in(path);
   std::vector<std::string> lines;
@@ -190,6 +203,7 @@ class Supervisor {
     started_ = Clock::now();
     for (auto& child : children_) child.last_heartbeat = started_;
     while (!AllExited()) {
+      TellExternalsAlive();
       ReadControl();
       Reap();
       if (!stopping_) Watch();
@@ -223,6 +237,15 @@ class Supervisor {
     return true;
   }
 
+  void TellExternalsAlive() {
+    const auto now = Clock::now();
+    if (now - last_alive_ < kAlivePeriod) return;
+    last_alive_ = now;
+    for (const auto& child : children_) {
+      if (child.external && !child.exited) server_.Send(child.name, "alive");
+    }
+  }
+
   void ReadControl() {
     auto timeout = milliseconds(10);
     while (auto message = server_.Receive(timeout)) {
@@ -244,6 +267,17 @@ class Supervisor {
       } else if (message->kind == "bye") {
         child->said_bye = true;
         child->report = nlohmann::json::parse(message->body, nullptr, /*allow_exceptions=*/false);
+        // a process started elsewhere has ended with its bye (a local one when it is reaped); its CPU time
+        // is what it reported
+        if (child->external) {
+          child->exited = true;
+          const auto cpu = child->report.is_object() ? child->report.value("cpu_s", nlohmann::json::object())
+                                                     : nlohmann::json::object();
+          child->cpu_user_s = cpu.value("user", 0.0);
+          child->cpu_system_s = cpu.value("system", 0.0);
+          if (!stopping_)
+            Fail("process '" + child->name + "' (started elsewhere) ended before the end of the run");
+        }
       }
     }
     for (const std::string& refusal : server_.TakeRefusals()) {
@@ -253,7 +287,7 @@ class Supervisor {
 
   void Reap() {
     for (auto& child : children_) {
-      if (child.exited) continue;
+      if (child.exited || child.external) continue;
       int status = 0;
       rusage usage{};
       if (wait4(child.pid, &status, WNOHANG, &usage) != child.pid) continue;
@@ -288,8 +322,9 @@ class Supervisor {
         all_ready = false;
         if (now - started_ > std::chrono::duration<double>(child.startup_timeout_s)) {
           Fail("process '" + child.name + "' did not become ready within " +
-               std::to_string(child.startup_timeout_s) + " s; its log " + child.log_path + ":" +
-               LastLines(child.log_path, 5));
+               std::to_string(child.startup_timeout_s) + " s; " +
+               (child.external ? "it is started elsewhere, with: " + child.command
+                               : "its log " + child.log_path + ":" + LastLines(child.log_path, 5)));
           return;
         }
       }
@@ -307,8 +342,9 @@ class Supervisor {
     for (auto& child : children_) {
       if (now - child.last_heartbeat > std::chrono::duration<double>(child.hang_timeout_s)) {
         const double silent_s = std::chrono::duration<double>(now - child.last_heartbeat).count();
-        kill(child.pid, SIGKILL);  // a hung process will not answer a stop request
-        Fail("process '" + child.name + "' is not responding (no heartbeat for " + std::to_string(silent_s) +
+        if (!child.external) kill(child.pid, SIGKILL);  // a hung process will not answer a stop request
+        Fail("process '" + child.name + "'" + (child.external ? " (started elsewhere)" : "") +
+             " is not responding (no heartbeat for " + std::to_string(silent_s) +
              " s, hang_timeout_s = " + std::to_string(child.hang_timeout_s) + ")");
         return;
       }
@@ -346,6 +382,13 @@ class Supervisor {
         child.signal_at = now + kRecorderCloseGrace;
       }
       if (now < child.signal_at) continue;
+      if (child.external) {
+        // no signal reaches another host; it stops by itself once the launcher is silent (hang_timeout_s)
+        log_->warn("process '{}' (started elsewhere) did not say bye after the stop; not waiting for it",
+                   child.name);
+        child.exited = true;
+        continue;
+      }
       const int sig = child.terminated ? SIGKILL : SIGTERM;
       log_->warn("process '{}' still running after stop; sending {}", child.name, strsignal(sig));
       kill(child.pid, sig);
@@ -386,7 +429,7 @@ class Supervisor {
   ControlServer& server_;
   std::shared_ptr<spdlog::logger> log_;
   bool progress_, plain_progress_;
-  Clock::time_point started_, running_since_, done_at_, last_progress_;
+  Clock::time_point started_, running_since_, done_at_, last_progress_, last_alive_;
   bool running_ = false, stopping_ = false, completed_ = false, interrupted_ = false;
   std::string failure_;
 };
@@ -503,6 +546,24 @@ std::string DescribeLosses(const nlohmann::json& losses, uint64_t total) {
   return text + "(metrics.json: losses)";
 }
 
+// The command that starts a process elsewhere, with absolute paths; written to RUN/external/NAME.sh too. It
+// reads the run's secret from RUN/secret; a host without the run folder needs a copy of
+// scenario.resolved.yaml (and every file it names, at the same paths) and IAPSIM_RUN_SECRET set.
+std::string ExternalCommand(const std::string& exec, const std::string& resolved_path,
+                            const std::string& node, const std::string& run_dir) {
+  const fs::path run = fs::absolute(run_dir).lexically_normal();
+  const std::string command = fs::absolute(exec).lexically_normal().string() + " --scenario " +
+                              fs::absolute(resolved_path).lexically_normal().string() + " --node " + node +
+                              " --run-dir " + run.string();
+  fs::create_directories(run / "external");
+  const fs::path script = run / "external" / (node + ".sh");
+  std::ofstream(script) << "#!/bin/sh\n# starts '" << node << "' of the run in " << run.string()
+                        << " (the launcher waits for it)\nexec " << command << " \"$@\"\n";
+  fs::permissions(script, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
+                  fs::perm_options::add);
+  return command;
+}
+
 }  // namespace
 
 std::string UtcStamp() {
@@ -602,10 +663,18 @@ LaunchResult Launch(const LaunchOptions& options) {
     child.hang_timeout_s = p.hang_timeout_s;
     child.startup_timeout_s = p.startup_timeout_s;
     child.recorder = p.name == kRecorderProcess && scenario.recording.enabled;
-    child.pid = Spawn(
-        {executables[p.name], "--scenario", resolved_path, "--node", p.name, "--run-dir", result.run_dir},
-        EnvironmentWithSecret(secret), child.log_path);
-    log->info("started {} (pid {}): {}", p.name, child.pid, executables[p.name]);
+    if (p.host == ProcessHost::kExternal) {
+      child.external = true;
+      child.command = ExternalCommand(executables[p.name], resolved_path, p.name, result.run_dir);
+      log->info("waiting for {} (started elsewhere): {}", p.name, child.command);
+      std::fprintf(stderr, "iapsim run: waiting up to %.0f s for '%s', started elsewhere:\n  %s\n",
+                   p.startup_timeout_s, p.name.c_str(), child.command.c_str());
+    } else {
+      child.pid = Spawn(
+          {executables[p.name], "--scenario", resolved_path, "--node", p.name, "--run-dir", result.run_dir},
+          EnvironmentWithSecret(secret), child.log_path);
+      log->info("started {} (pid {}): {}", p.name, child.pid, executables[p.name]);
+    }
     children.push_back(child);
   }
 
@@ -629,7 +698,7 @@ LaunchResult Launch(const LaunchOptions& options) {
   metrics["wall_time_s"] = wall_s;
   for (const auto& child : supervisor.children()) {
     nlohmann::json entry = child.report.is_object() ? child.report : nlohmann::json::object();
-    entry["exit"] = DescribeExit(child.status);
+    entry["exit"] = DescribeEnd(child);
     entry["cpu_s"] = {{"user", child.cpu_user_s}, {"system", child.cpu_system_s}};
     if (child.name == scenario.clock_owner && entry.contains("sim_time_s")) {
       metrics["sim_time_s"] = entry["sim_time_s"];

@@ -148,6 +148,7 @@ class Runtime {
   }
 
   bool Handshake() {
+    last_launcher_message_ = Clock::now();
     control_.Send("hello");
     bus_.BeginHandshake();
     const auto peers = Peers();
@@ -176,8 +177,17 @@ class Runtime {
     if (poll_now || now - last_control_poll_ >= kControlPollPeriod) {
       last_control_poll_ = now;
       while (auto message = control_.Receive(milliseconds(0))) {
+        last_launcher_message_ = now;
         if (message->kind == "start") start_received_ = true;
         if (message->kind == "stop") stop_received_ = true;
+      }
+      // a process started elsewhere does not die with the launcher (no PR_SET_PDEATHSIG across hosts): the
+      // launcher's messages are its heartbeat, as the process's are the launcher's
+      const auto silent = std::chrono::duration<double>(now - last_launcher_message_);
+      if (self_.host == ProcessHost::kExternal && silent.count() > self_.hang_timeout_s) {
+        throw std::runtime_error("the launcher has been silent for " + std::to_string(silent.count()) +
+                                 " s (hang_timeout_s): the run is gone, or this host cannot reach " +
+                                 scenario_.bus.control_endpoint);
       }
     }
     if (received_signal != 0 && !stop_received_) {
@@ -399,6 +409,9 @@ class Runtime {
                              {"process", process_report},
                              {"completed", finished_},
                              {"sim_time_s", static_cast<double>(sim_ns_) * 1e-9}};
+    // the launcher measures a local process's CPU time itself; one on another host reports its own
+    const CpuTime cpu = ProcessCpuTime();
+    report["cpu_s"] = {{"user", cpu.user_s}, {"system", cpu.system_s}};
     if (self_.role == ProcessRole::kClock && scenario_.mode == ClockMode::kRealtime) {
       report["behind_schedule"] = {
           {"steps", behind_schedule_.steps},
@@ -458,6 +471,7 @@ class Runtime {
   bool finished_ = false;
   Clock::time_point last_heartbeat_{};
   Clock::time_point last_control_poll_{};
+  Clock::time_point last_launcher_message_{};
 };
 
 struct Arguments {

@@ -23,6 +23,15 @@ ClockMode ParseMode(const std::string& mode) {
   return ClockMode::kLockstep;
 }
 
+// ZeroMQ would also take an interface or a host name, resolved when each process binds or connects: an
+// address is checked here, once, where the message can name the key
+void RequireIpv4Address(const YamlMap& map, const std::string& key, const std::string& address) {
+  in_addr parsed{};
+  if (inet_pton(AF_INET, address.c_str(), &parsed) != 1) {
+    map.Fail(key, "expected an IPv4 address such as 10.0.0.2, got '" + address + "'");
+  }
+}
+
 ProcessRole ParseRole(const std::string& role) {
   if (role == "clock") return ProcessRole::kClock;
   if (role == "observer") return ProcessRole::kObserver;
@@ -283,6 +292,8 @@ Scenario Load(const std::string& path, const std::vector<std::string>& overrides
   YamlMap bus = top.Map("bus");
   bus.OptionalChoice("transport", &s.bus.transport, {"shm", "ipc", "tcp"});
   bus.OptionalInRange("tcp_base_port", &s.bus.tcp_base_port, 0, 65000);
+  bus.Optional("tcp_address", &s.bus.tcp_address);
+  RequireIpv4Address(bus, "tcp_address", s.bus.tcp_address);
   if (s.bus.tcp_base_port != 0 && s.bus.tcp_base_port < 1024) {
     bus.Fail("tcp_base_port",
              "must be 0 (free ports) or in [1024, 65000], got " + std::to_string(s.bus.tcp_base_port));
@@ -350,6 +361,24 @@ Scenario Load(const std::string& path, const std::vector<std::string>& overrides
     p.line = entry.Mark().is_null() ? 0 : entry.Mark().line + 1;
     YamlMap map = process_maps.Map(name);
     map.Required("exec", &p.exec);
+    std::string host = "local";
+    map.OptionalChoice("host", &host, {"local", "external"});
+    p.host = host == "external" ? ProcessHost::kExternal : ProcessHost::kLocal;
+    // someone has to start an external process by hand, on another host: minutes, not seconds
+    if (p.host == ProcessHost::kExternal) p.startup_timeout_s = 600.0;
+    map.Optional("address", &p.address);
+    if (!p.address.empty()) {
+      RequireIpv4Address(map, "address", p.address);
+      if (p.host != ProcessHost::kExternal) {
+        map.Fail("address",
+                 "only a process with host: external binds an address of its own (the others bind "
+                 "bus.tcp_address)");
+      }
+      if (s.bus.transport != "tcp") {
+        map.Fail("address", "a process on another host needs bus.transport: tcp (the transport is '" +
+                                s.bus.transport + "')");
+      }
+    }
     std::string role = "participant";
     map.OptionalChoice("role", &role, {"clock", "participant", "observer"});
     p.role = ParseRole(role);
@@ -410,27 +439,29 @@ Scenario Load(const std::string& path, const std::vector<std::string>& overrides
 
 namespace {
 
-// `count` different tcp ports of 127.0.0.1 that are free now: each socket is bound to port 0 (the kernel
-// picks an unused one) and all stay bound until every port is picked, so they differ. The processes bind them
-// moments later; a program that takes one in between makes that process fail with a bind error naming the
-// endpoint.
-std::vector<int> FreeTcpPorts(size_t count) {
+// `count` different tcp ports of `address` (this host's) that are free now: each socket is bound to port 0
+// (the kernel picks an unused one) and all stay bound until every port is picked, so they differ. The
+// processes bind them moments later; a program that takes one in between makes that process fail with a
+// bind error naming the endpoint. A process on another host gets one of these too: free here, and most
+// likely there (bus.tcp_base_port makes them fixed, for firewalls).
+std::vector<int> FreeTcpPorts(size_t count, const std::string& address) {
   std::vector<int> sockets, ports;
   for (size_t i = 0; i < count; ++i) {
     const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t length = sizeof(address);
-    if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) != 0 ||
-        ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) != 0) {
+    sockaddr_in bound{};
+    bound.sin_family = AF_INET;
+    inet_pton(AF_INET, address.c_str(), &bound.sin_addr);
+    socklen_t length = sizeof(bound);
+    if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&bound), sizeof(bound)) != 0 ||
+        ::getsockname(fd, reinterpret_cast<sockaddr*>(&bound), &length) != 0) {
       const std::string why = std::strerror(errno);
       if (fd >= 0) ::close(fd);
       for (const int s : sockets) ::close(s);
-      throw std::runtime_error("bus: no free tcp port on 127.0.0.1 (" + why + "); set bus.tcp_base_port");
+      throw std::runtime_error("bus: no free tcp port on " + address + " (" + why +
+                               "); is bus.tcp_address an address of this host? Or set bus.tcp_base_port");
     }
     sockets.push_back(fd);
-    ports.push_back(ntohs(address.sin_port));
+    ports.push_back(ntohs(bound.sin_port));
   }
   for (const int fd : sockets) ::close(fd);
   return ports;
@@ -443,39 +474,46 @@ void AssignEndpoints(Scenario* scenario, const std::string& run_id) {
   YAML::Node endpoints(YAML::NodeType::Map), observer_endpoints(YAML::NodeType::Map);
   const std::string& transport = scenario->bus.transport;
   const size_t n = scenario->processes.size();
-  // tcp: the processes' ports, then their observer ports
+  // tcp: the processes' ports, their observer ports, then the launcher's control port
   std::vector<int> ports;
-  for (size_t i = 0; transport == "tcp" && i < 2 * n; ++i) {
+  for (size_t i = 0; transport == "tcp" && i < 2 * n + 1; ++i) {
     ports.push_back(scenario->bus.tcp_base_port + static_cast<int>(i));
   }
-  if (transport == "tcp" && scenario->bus.tcp_base_port == 0) ports = FreeTcpPorts(2 * n);
+  if (transport == "tcp" && scenario->bus.tcp_base_port == 0) {
+    ports = FreeTcpPorts(2 * n + 1, scenario->bus.tcp_address);
+  }
   if (!ports.empty() && ports.back() > 65535) {
     throw std::runtime_error("bus.tcp_base_port " + std::to_string(scenario->bus.tcp_base_port) + ": " +
-                             std::to_string(2 * n) +
-                             " ports from it (a publisher and an observer port per "
-                             "process) go beyond 65535");
+                             std::to_string(2 * n + 1) +
+                             " ports from it (a publisher and an observer port per process, and the "
+                             "launcher's) go beyond 65535");
   }
+  const auto tcp = [&](const std::string& address, size_t port_index) {
+    return "tcp://" + (address.empty() ? scenario->bus.tcp_address : address) + ":" +
+           std::to_string(ports[port_index]);
+  };
   size_t index = 0;
   for (const auto& p : scenario->processes) {
     // shm and ipc name abstract unix sockets: no files left behind, no path-length limit from a deep run
     // directory
     const std::string name = "iapsim-" + run_id + "-" + p.name;
-    const std::string endpoint = transport == "tcp"   ? "tcp://127.0.0.1:" + std::to_string(ports[index])
+    const std::string endpoint = transport == "tcp"   ? tcp(p.address, index)
                                  : transport == "shm" ? "shm://" + name
                                                       : "ipc://@" + name;
     scenario->bus.endpoints[p.name] = endpoint;
     endpoints[p.name] = endpoint;
     // shared memory tells observers apart by name (bridge/bus.h)
     if (transport != "shm") {
-      const std::string observer_endpoint = transport == "tcp"
-                                                ? "tcp://127.0.0.1:" + std::to_string(ports[n + index])
-                                                : "ipc://@" + name + "-observers";
+      const std::string observer_endpoint =
+          transport == "tcp" ? tcp(p.address, n + index) : "ipc://@" + name + "-observers";
       scenario->bus.observer_endpoints[p.name] = observer_endpoint;
       observer_endpoints[p.name] = observer_endpoint;
     }
     ++index;
   }
-  scenario->bus.control_endpoint = "ipc://@iapsim-" + run_id + "-launcher";
+  // tcp: the control channel too, so that a process on another host reaches it (encrypted: CURVE)
+  scenario->bus.control_endpoint =
+      transport == "tcp" ? tcp("", 2 * n) : "ipc://@iapsim-" + run_id + "-launcher";
   bus["control_endpoint"] = scenario->bus.control_endpoint;
   bus["endpoints"] = endpoints;
   if (transport != "shm") bus["observer_endpoints"] = observer_endpoints;

@@ -32,7 +32,10 @@ struct ClockConfig {
 };
 
 struct BusConfig {
-  std::string transport = "shm";  // shm (shared memory), ipc (ZeroMQ, unix sockets), tcp (ZeroMQ, loopback)
+  std::string transport = "shm";  // shm (shared memory), ipc (ZeroMQ, unix sockets), tcp (ZeroMQ)
+  // tcp: the IPv4 address this host's processes and the launcher's control channel bind; a graph that spans
+  // hosts names one its other hosts reach (nothing binds a non-loopback address unless the scenario says so)
+  std::string tcp_address = "127.0.0.1";
   // tcp: process i binds tcp_base_port + i; 0 (the default): ports the kernel says are free, so that runs at
   // the same time never collide
   int tcp_base_port = 0;
@@ -67,9 +70,16 @@ struct RecordingConfig {
   bool Records(const std::string& topic) const;
 };
 
+/// local: the launcher starts the process. external: someone else does (on another host, under a debugger):
+/// the launcher prints the command, waits for it to connect and supervises it by its heartbeats.
+enum class ProcessHost { kLocal, kExternal };
+
 struct ProcessConfig {
   std::string name;
   std::string exec;  // executable in the build's bin/ folder, or an absolute path
+  ProcessHost host = ProcessHost::kLocal;
+  // tcp, external: the IPv4 address the process binds on its own host (empty: bus.tcp_address, this host)
+  std::string address;
   ProcessRole role = ProcessRole::kParticipant;
   double rate_hz = 0.0;         // 0: every clock step
   double hang_timeout_s = 2.0;  // no heartbeat this long: the process is hung (slack for loaded CI machines)

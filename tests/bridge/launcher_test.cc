@@ -365,6 +365,15 @@ TEST_F(LauncherTest, ConfigurationErrorsNameTheFileLineAndKey) {
        "bus.max_message_kib.iap/state: must be 'default', a topic or a namespace ending in '/'"},
       {"limit", "seed: 42\n", "seed: 42\nbus: {shm_queue_max_mib: 1, max_message_kib: {default: 2048}}\n",
        "bus.max_message_kib.default: must be in [1, 1024]"},
+      {"tcp address", "seed: 42\n", "seed: 42\nbus: {transport: tcp, tcp_address: localhost}\n",
+       "bus.tcp_address: expected an IPv4 address such as 10.0.0.2, got 'localhost'"},
+      {"host", "    role: observer\n", "    role: observer\n    host: remote\n",
+       "host: must be one of local, external"},
+      {"address not tcp", "    role: observer\n",
+       "    role: observer\n    host: external\n    address: 10.0.0.2\n",
+       "address: a process on another host needs bus.transport: tcp (the transport is 'shm')"},
+      {"address local", "    role: observer\n", "    role: observer\n    address: 10.0.0.2\n",
+       "address: only a process with host: external binds an address of its own"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.name);
@@ -860,6 +869,34 @@ TEST_F(LauncherTest, ATcpRunRefusesPeersWithoutItsKeys) {
   EXPECT_GE(metrics["processes"]["physics"]["bus"]["refused_peers"].get<uint64_t>(), 2u);
   const std::string log = FileBytes(result.run_dir + "/logs/physics.log");
   EXPECT_NE(log.find("refused a peer without credentials"), std::string::npos) << log;
+}
+
+// Over tcp the control channel is tcp too (a process on another host reaches it) and CURVE: a client with
+// another secret, or with none, cannot end the run with a forged "done"; the run's own processes get in.
+TEST_F(LauncherTest, ATcpRunsControlChannelIsEncryptedAndRefusesForgers) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(5.0));
+  ASSERT_GT(StartInBackground(scenario, {"bus.transport=tcp"}, "physics"), 0);
+  const std::string endpoint = BackgroundScenario()["bus"]["control_endpoint"].as<std::string>();
+  EXPECT_EQ(endpoint.rfind("tcp://127.0.0.1:", 0), 0u) << endpoint;
+  {
+    ControlClient wrong_secret(endpoint, "physics", std::string(64, '0'));
+    wrong_secret.Send("done");
+    zmq::context_t context;
+    zmq::socket_t plain(context, zmq::socket_type::dealer);
+    plain.set(zmq::sockopt::routing_id, "physics");
+    plain.set(zmq::sockopt::plain_username, "physics");
+    plain.set(zmq::sockopt::plain_password, BackgroundSecret());  // the secret, but in clear: refused
+    plain.set(zmq::sockopt::linger, 1000);
+    plain.connect(endpoint);
+    plain.send(zmq::str_buffer("done"), zmq::send_flags::sndmore);
+    plain.send(zmq::str_buffer(""), zmq::send_flags::none);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  const LaunchResult result = WaitForBackgroundRun();
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  const auto metrics = Metrics(result);
+  EXPECT_DOUBLE_EQ(metrics["sim_time_s"].get<double>(), 5.0);  // not ended early
+  EXPECT_GE(metrics["control_refused"].get<uint64_t>(), 2u);
 }
 
 TEST_F(LauncherTest, ReplayPlaysRecordedTopicsReStampedOntoSimTime) {
