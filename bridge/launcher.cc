@@ -1,6 +1,8 @@
 #include "bridge/launcher.h"
 
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netdb.h>
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
@@ -108,8 +110,9 @@ struct Child {
   std::string name;
   std::string log_path;
   pid_t pid = -1;
+  ProcessHost host = ProcessHost::kLocal;
   // started elsewhere (host: external): no pid, its end is its bye; `command` is what starts it
-  bool external = false;
+  bool external() const { return host == ProcessHost::kExternal; }
   std::string command;
   bool exited = false;
   int status = 0;
@@ -170,7 +173,7 @@ pid_t Spawn(std::vector<std::string> args, std::vector<std::string> env, const s
 
 // How a process ended, for metrics.json: its exit status, or for one started elsewhere whether it said bye.
 std::string DescribeEnd(const Child& child) {
-  if (!child.external) return DescribeExit(child.status);
+  if (!child.external()) return DescribeExit(child.status);
   return child.said_bye ? "said bye (started elsewhere)"
                         : "not heard from after the stop (started elsewhere)";
 }
@@ -242,7 +245,7 @@ class Supervisor {
     if (now - last_alive_ < kAlivePeriod) return;
     last_alive_ = now;
     for (const auto& child : children_) {
-      if (child.external && !child.exited) server_.Send(child.name, "alive");
+      if (child.host != ProcessHost::kLocal && !child.exited) server_.Send(child.name, "alive");
     }
   }
 
@@ -267,14 +270,16 @@ class Supervisor {
       } else if (message->kind == "bye") {
         child->said_bye = true;
         child->report = nlohmann::json::parse(message->body, nullptr, /*allow_exceptions=*/false);
-        // a process started elsewhere has ended with its bye (a local one when it is reaped); its CPU time
-        // is what it reported
-        if (child->external) {
-          child->exited = true;
+        // on another host its CPU time is what it reported (srun's is not the process's)
+        if (child->host != ProcessHost::kLocal) {
           const auto cpu = child->report.is_object() ? child->report.value("cpu_s", nlohmann::json::object())
                                                      : nlohmann::json::object();
           child->cpu_user_s = cpu.value("user", 0.0);
           child->cpu_system_s = cpu.value("system", 0.0);
+        }
+        // a process started elsewhere has ended with its bye (one started here when it is reaped)
+        if (child->external()) {
+          child->exited = true;
           if (!stopping_)
             Fail("process '" + child->name + "' (started elsewhere) ended before the end of the run");
         }
@@ -287,16 +292,18 @@ class Supervisor {
 
   void Reap() {
     for (auto& child : children_) {
-      if (child.exited || child.external) continue;
+      if (child.exited || child.external()) continue;
       int status = 0;
       rusage usage{};
       if (wait4(child.pid, &status, WNOHANG, &usage) != child.pid) continue;
       child.exited = true;
       child.status = status;
-      child.cpu_user_s =
-          static_cast<double>(usage.ru_utime.tv_sec) + 1e-6 * static_cast<double>(usage.ru_utime.tv_usec);
-      child.cpu_system_s =
-          static_cast<double>(usage.ru_stime.tv_sec) + 1e-6 * static_cast<double>(usage.ru_stime.tv_usec);
+      if (child.host == ProcessHost::kLocal) {
+        child.cpu_user_s =
+            static_cast<double>(usage.ru_utime.tv_sec) + 1e-6 * static_cast<double>(usage.ru_utime.tv_usec);
+        child.cpu_system_s =
+            static_cast<double>(usage.ru_stime.tv_sec) + 1e-6 * static_cast<double>(usage.ru_stime.tv_usec);
+      }
       const bool clean = WIFEXITED(status) && WEXITSTATUS(status) == 0;
       if (!stopping_ || (!clean && !completed_ && failure_.empty())) {
         Fail("process '" + child.name + "' (pid " + std::to_string(child.pid) + ") " + DescribeExit(status) +
@@ -323,8 +330,8 @@ class Supervisor {
         if (now - started_ > std::chrono::duration<double>(child.startup_timeout_s)) {
           Fail("process '" + child.name + "' did not become ready within " +
                std::to_string(child.startup_timeout_s) + " s; " +
-               (child.external ? "it is started elsewhere, with: " + child.command
-                               : "its log " + child.log_path + ":" + LastLines(child.log_path, 5)));
+               (child.external() ? "it is started elsewhere, with: " + child.command
+                                 : "its log " + child.log_path + ":" + LastLines(child.log_path, 5)));
           return;
         }
       }
@@ -342,8 +349,8 @@ class Supervisor {
     for (auto& child : children_) {
       if (now - child.last_heartbeat > std::chrono::duration<double>(child.hang_timeout_s)) {
         const double silent_s = std::chrono::duration<double>(now - child.last_heartbeat).count();
-        if (!child.external) kill(child.pid, SIGKILL);  // a hung process will not answer a stop request
-        Fail("process '" + child.name + "'" + (child.external ? " (started elsewhere)" : "") +
+        if (!child.external()) kill(child.pid, SIGKILL);  // a hung process will not answer a stop request
+        Fail("process '" + child.name + "'" + (child.external() ? " (started elsewhere)" : "") +
              " is not responding (no heartbeat for " + std::to_string(silent_s) +
              " s, hang_timeout_s = " + std::to_string(child.hang_timeout_s) + ")");
         return;
@@ -382,7 +389,7 @@ class Supervisor {
         child.signal_at = now + kRecorderCloseGrace;
       }
       if (now < child.signal_at) continue;
-      if (child.external) {
+      if (child.external()) {
         // no signal reaches another host; it stops by itself once the launcher is silent (hang_timeout_s)
         log_->warn("process '{}' (started elsewhere) did not say bye after the stop; not waiting for it",
                    child.name);
@@ -546,6 +553,78 @@ std::string DescribeLosses(const nlohmann::json& losses, uint64_t total) {
   return text + "(metrics.json: losses)";
 }
 
+// Where `program` is on PATH, or "" (execve takes a path).
+std::string FindOnPath(const std::string& program) {
+  const char* path = std::getenv("PATH");
+  std::string folders = path ? path : "/usr/bin:/bin";
+  for (size_t start = 0; start <= folders.size();) {
+    const size_t end = std::min(folders.find(':', start), folders.size());
+    const std::string candidate = folders.substr(start, end - start) + "/" + program;
+    if (end > start && access(candidate.c_str(), X_OK) == 0) return candidate;
+    start = end + 1;
+  }
+  return "";
+}
+
+// The IPv4 address of `host` (a literal, or a name the resolver knows), or "".
+std::string Ipv4Of(const std::string& host) {
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  addrinfo* found = nullptr;
+  if (getaddrinfo(host.c_str(), nullptr, &hints, &found) != 0 || !found) return "";
+  char text[INET_ADDRSTRLEN] = "";
+  inet_ntop(AF_INET, &reinterpret_cast<sockaddr_in*>(found->ai_addr)->sin_addr, text, sizeof(text));
+  freeaddrinfo(found);
+  return text;
+}
+
+// A host: srun process runs as a job step of the allocation the launcher is in (salloc, sbatch), on its
+// slurm_node, and binds the address Slurm has for that node (NodeAddr) unless the scenario names one. Checks
+// both before anything starts; returns srun's path. Throws ConfigError naming the key.
+std::string PrepareSrun(const std::string& scenario_path, ProcessConfig* p, YAML::Node resolved) {
+  const std::string where = scenario_path + ":" + std::to_string(p->line) + ": processes." + p->name + ".";
+  if (!std::getenv("SLURM_JOB_ID")) {
+    throw ConfigError(where +
+                      "host: srun starts the process in the Slurm allocation iapsim run is in, and "
+                      "there is none (SLURM_JOB_ID is not set): run it inside salloc or sbatch");
+  }
+  const std::string srun = FindOnPath("srun"), scontrol = FindOnPath("scontrol");
+  if (srun.empty() || scontrol.empty()) {
+    throw ConfigError(where +
+                      "host: srun needs Slurm's srun and scontrol on PATH (apt-get install slurm-client)");
+  }
+  if (p->address.empty()) {
+    const Captured node = RunCaptured({scontrol, "show", "node", "-o", p->slurm_node});
+    const size_t at = node.out.find("NodeAddr=");
+    if (node.exit_code != 0 || at == std::string::npos) {
+      throw ConfigError(where + "slurm_node: '" + p->slurm_node +
+                        "' is not a node of the cluster (scontrol: " +
+                        Trimmed(node.err.empty() ? node.out : node.err) + ")");
+    }
+    const std::string node_address = node.out.substr(at + 9, node.out.find(' ', at) - at - 9);
+    p->address = Ipv4Of(node_address);
+    if (p->address.empty()) {
+      throw ConfigError(where + "slurm_node: no IPv4 address for its NodeAddr '" + node_address +
+                        "'; give the process an address");
+    }
+    resolved["processes"][p->name]["address"] = p->address;
+  }
+  return srun;
+}
+
+// srun's part of a host: srun process's command: one task on its node, sharing the allocation's CPUs with
+// the other steps (--overlap), its output in the process's log as a local one's
+std::vector<std::string> SrunCommand(const std::string& srun_path, const ProcessConfig& p) {
+  return {srun_path,
+          "--jobid=" + std::string(std::getenv("SLURM_JOB_ID")),
+          "--nodes=1",
+          "--ntasks=1",
+          "--nodelist=" + p.slurm_node,
+          "--overlap",
+          "--quiet",
+          "--job-name=iapsim-" + p.name};
+}
+
 // The command that starts a process elsewhere, with absolute paths; written to RUN/external/NAME.sh too. It
 // reads the run's secret from RUN/secret; a host without the run folder needs a copy of
 // scenario.resolved.yaml (and every file it names, at the same paths) and IAPSIM_RUN_SECRET set.
@@ -586,6 +665,7 @@ LaunchResult Launch(const LaunchOptions& options) {
   Scenario scenario;
   std::map<std::string, std::string> executables;
   std::map<std::string, YAML::Node> resolved_params;
+  std::string srun_path;
   try {
     scenario = LoadScenario(options.scenario_path, options.overrides);
     for (const auto& p : scenario.processes) {
@@ -607,6 +687,9 @@ LaunchResult Launch(const LaunchOptions& options) {
                                  Trimmed(checked.err));
       }
       resolved_params[p.name] = YAML::Load(checked.out);
+    }
+    for (auto& p : scenario.processes) {
+      if (p.host == ProcessHost::kSrun) srun_path = PrepareSrun(options.scenario_path, &p, scenario.resolved);
     }
   } catch (const ConfigError& e) {
     result.exit_code = 2;
@@ -663,17 +746,22 @@ LaunchResult Launch(const LaunchOptions& options) {
     child.hang_timeout_s = p.hang_timeout_s;
     child.startup_timeout_s = p.startup_timeout_s;
     child.recorder = p.name == kRecorderProcess && scenario.recording.enabled;
+    child.host = p.host;
     if (p.host == ProcessHost::kExternal) {
-      child.external = true;
       child.command = ExternalCommand(executables[p.name], resolved_path, p.name, result.run_dir);
       log->info("waiting for {} (started elsewhere): {}", p.name, child.command);
       std::fprintf(stderr, "iapsim run: waiting up to %.0f s for '%s', started elsewhere:\n  %s\n",
                    p.startup_timeout_s, p.name.c_str(), child.command.c_str());
     } else {
-      child.pid = Spawn(
-          {executables[p.name], "--scenario", resolved_path, "--node", p.name, "--run-dir", result.run_dir},
-          EnvironmentWithSecret(secret), child.log_path);
-      log->info("started {} (pid {}): {}", p.name, child.pid, executables[p.name]);
+      std::vector<std::string> command{executables[p.name], "--scenario",  resolved_path, "--node", p.name,
+                                       "--run-dir",         result.run_dir};
+      if (p.host == ProcessHost::kSrun) {
+        const std::vector<std::string> srun = SrunCommand(srun_path, p);
+        command.insert(command.begin(), srun.begin(), srun.end());
+      }
+      child.pid = Spawn(command, EnvironmentWithSecret(secret), child.log_path);
+      log->info("started {} (pid {}{}): {}", p.name, child.pid,
+                p.host == ProcessHost::kSrun ? ", a job step on " + p.slurm_node : "", executables[p.name]);
     }
     children.push_back(child);
   }

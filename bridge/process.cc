@@ -181,10 +181,10 @@ class Runtime {
         if (message->kind == "start") start_received_ = true;
         if (message->kind == "stop") stop_received_ = true;
       }
-      // a process started elsewhere does not die with the launcher (no PR_SET_PDEATHSIG across hosts): the
-      // launcher's messages are its heartbeat, as the process's are the launcher's
+      // a process on another host (external, or a Slurm job step) does not die with the launcher (no
+      // PR_SET_PDEATHSIG across hosts): the launcher's messages are its heartbeat, as its are the launcher's
       const auto silent = std::chrono::duration<double>(now - last_launcher_message_);
-      if (self_.host == ProcessHost::kExternal && silent.count() > self_.hang_timeout_s) {
+      if (self_.host != ProcessHost::kLocal && silent.count() > self_.hang_timeout_s) {
         throw std::runtime_error("the launcher has been silent for " + std::to_string(silent.count()) +
                                  " s (hang_timeout_s): the run is gone, or this host cannot reach " +
                                  scenario_.bus.control_endpoint);

@@ -362,22 +362,30 @@ Scenario Load(const std::string& path, const std::vector<std::string>& overrides
     YamlMap map = process_maps.Map(name);
     map.Required("exec", &p.exec);
     std::string host = "local";
-    map.OptionalChoice("host", &host, {"local", "external"});
-    p.host = host == "external" ? ProcessHost::kExternal : ProcessHost::kLocal;
+    map.OptionalChoice("host", &host, {"local", "external", "srun"});
+    p.host = host == "external" ? ProcessHost::kExternal
+             : host == "srun"   ? ProcessHost::kSrun
+                                : ProcessHost::kLocal;
     // someone has to start an external process by hand, on another host: minutes, not seconds
     if (p.host == ProcessHost::kExternal) p.startup_timeout_s = 600.0;
     map.Optional("address", &p.address);
     if (!p.address.empty()) {
       RequireIpv4Address(map, "address", p.address);
-      if (p.host != ProcessHost::kExternal) {
+      if (p.host == ProcessHost::kLocal) {
         map.Fail("address",
-                 "only a process with host: external binds an address of its own (the others bind "
-                 "bus.tcp_address)");
+                 "only a process with host: external or srun binds an address of its own (the "
+                 "others bind bus.tcp_address)");
       }
-      if (s.bus.transport != "tcp") {
-        map.Fail("address", "a process on another host needs bus.transport: tcp (the transport is '" +
-                                s.bus.transport + "')");
-      }
+    }
+    map.Optional("slurm_node", &p.slurm_node);
+    if (p.host == ProcessHost::kSrun && p.slurm_node.empty()) {
+      map.Fail("host", "srun needs slurm_node: the node of the allocation the process runs on");
+    }
+    if (p.host != ProcessHost::kSrun && !p.slurm_node.empty()) map.Fail("slurm_node", "only for host: srun");
+    if ((!p.address.empty() || p.host == ProcessHost::kSrun) && s.bus.transport != "tcp") {
+      map.Fail(
+          p.address.empty() ? "host" : "address",
+          "a process on another host needs bus.transport: tcp (the transport is '" + s.bus.transport + "')");
     }
     std::string role = "participant";
     map.OptionalChoice("role", &role, {"clock", "participant", "observer"});

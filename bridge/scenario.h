@@ -71,15 +71,18 @@ struct RecordingConfig {
 };
 
 /// local: the launcher starts the process. external: someone else does (on another host, under a debugger):
-/// the launcher prints the command, waits for it to connect and supervises it by its heartbeats.
-enum class ProcessHost { kLocal, kExternal };
+/// the launcher prints the command, waits for it to connect and supervises it by its heartbeats. srun: the
+/// launcher, inside a Slurm allocation, starts it on `slurm_node` as a job step.
+enum class ProcessHost { kLocal, kExternal, kSrun };
 
 struct ProcessConfig {
   std::string name;
   std::string exec;  // executable in the build's bin/ folder, or an absolute path
   ProcessHost host = ProcessHost::kLocal;
-  // tcp, external: the IPv4 address the process binds on its own host (empty: bus.tcp_address, this host)
+  // tcp, external or srun: the IPv4 address the process binds on its own host (empty: external, this host's
+  // bus.tcp_address; srun, the address Slurm has for slurm_node)
   std::string address;
+  std::string slurm_node;  // srun: the node of the allocation it runs on
   ProcessRole role = ProcessRole::kParticipant;
   double rate_hz = 0.0;         // 0: every clock step
   double hang_timeout_s = 2.0;  // no heartbeat this long: the process is hung (slack for loaded CI machines)

@@ -3,6 +3,7 @@
 # 127.0.0.1, tools/slurm_local_cluster.sh), stopped afterwards by pid (issue 22): the same sweep on the local
 # pool and as a job array gives the same table; a task killed outright is a failed run with its reason, and
 # --resume reruns only it; Ctrl-C cancels the array and leaves nothing running; sbatch's refusal is reported.
+# And a graph with a process started by srun inside an allocation (host: srun) records the one-host bag.
 # usage: sweep_slurm_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
 # shellcheck source=tests/support/script.sh
@@ -91,5 +92,21 @@ set -e
 [ $code -eq 1 ] || fail "a refused array exited $code"
 grep -q "sbatch failed .*[Ii]nvalid partition" "$work/refused.err" || fail "refused: $(cat "$work/refused.err")"
 [ -s "$work/refused/sweep.json" ] || fail "a refused sweep cannot be resumed"
+
+# a graph with its sensors as a job step of the allocation the run is in (host: srun, on the node's
+# NodeAddr over tcp): the bag is the one-host run's, byte for byte
+graph=("$src/configs/scenarios/three_star_sensors.yaml" --set duration_s=1 --set bus.transport=tcp)
+node=$(sinfo --noheader -o %n | head -1)
+"$iapsim" run "${graph[@]}" --out "$work/graph_one" > "$work/graph_one.out" 2>&1 || fail "one host: $(cat "$work/graph_one.out")"
+step=(--set processes.sensors.host=srun --set "processes.sensors.slurm_node=$node")
+salloc --nodes=1 --quiet "$iapsim" run "${graph[@]}" "${step[@]}" --out "$work/graph_srun" > "$work/graph_srun.out" 2>&1 ||
+  fail "srun: $(cat "$work/graph_srun.out")"
+grep -q "started sensors (pid [0-9]*, a job step on $node)" "$work/graph_srun/log.txt" || fail "srun: $(cat "$work/graph_srun/log.txt")"
+cmp "$work/graph_one/run.bag" "$work/graph_srun/run.bag" || fail "the bag of the graph with a job step differs"
+expect_exit 2 "processes.sensors.host: srun starts the process in the Slurm allocation iapsim run is in, and there is none" \
+  env -u SLURM_JOB_ID "$iapsim" run "${graph[@]}" "${step[@]}"
+expect_exit 2 "processes.sensors.slurm_node: 'no_such_node' is not a node of the cluster" \
+  salloc --nodes=1 --quiet "$iapsim" run "${graph[@]}" --set processes.sensors.host=srun --set processes.sensors.slurm_node=no_such_node
+[ -z "$(squeue --noheader)" ] || fail "jobs left queued: $(squeue)"
 
 echo "sweep_slurm_test: all checks passed"

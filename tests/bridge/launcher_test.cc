@@ -368,12 +368,16 @@ TEST_F(LauncherTest, ConfigurationErrorsNameTheFileLineAndKey) {
       {"tcp address", "seed: 42\n", "seed: 42\nbus: {transport: tcp, tcp_address: localhost}\n",
        "bus.tcp_address: expected an IPv4 address such as 10.0.0.2, got 'localhost'"},
       {"host", "    role: observer\n", "    role: observer\n    host: remote\n",
-       "host: must be one of local, external"},
+       "host: must be one of local, external, srun"},
       {"address not tcp", "    role: observer\n",
        "    role: observer\n    host: external\n    address: 10.0.0.2\n",
        "address: a process on another host needs bus.transport: tcp (the transport is 'shm')"},
+      {"srun not tcp", "    role: observer\n", "    role: observer\n    host: srun\n    slurm_node: n1\n",
+       "host: a process on another host needs bus.transport: tcp (the transport is 'shm')"},
+      {"srun node", "    role: observer\n", "    role: observer\n    host: srun\n",
+       "host: srun needs slurm_node"},
       {"address local", "    role: observer\n", "    role: observer\n    address: 10.0.0.2\n",
-       "address: only a process with host: external binds an address of its own"},
+       "address: only a process with host: external or srun binds an address of its own"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.name);
