@@ -2,8 +2,12 @@
 
 #include <ATen/Parallel.h>
 
+#include <chrono>
 #include <cmath>
+#include <mutex>
 #include <stdexcept>
+#include <torch/csrc/distributed/c10d/FileStore.hpp>
+#include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
 #include <vector>
 
 #include "physics/random.h"
@@ -68,8 +72,36 @@ struct Ppo::Impl {
   Mlp anchor{nullptr};  // the initial actor, frozen
   torch::Tensor log_std, mean, std;
   std::unique_ptr<torch::optim::Adam> actor_optimizer, value_optimizer;
-  at::Generator generator;
+  at::Generator generator;  // the update's permutations (equal on every rank), and alone the rollout's noise
   int64_t iteration = 0, env_steps = 0;
+  PpoWorkers workers;
+  c10::intrusive_ptr<c10d::ProcessGroupGloo> group;  // several workers: the others
+
+  // `values` summed over the ranks, in place (alone: as they are)
+  void SumAcrossRanks(torch::Tensor& values) {
+    if (!group) return;
+    std::vector<torch::Tensor> buffers{values};
+    group->allreduce(buffers)->wait();
+  }
+  // The gradients of `parameters` summed over the ranks, in one all-reduce with `figures` (returned summed)
+  std::vector<double> SumGradients(const std::vector<torch::Tensor>& parameters,
+                                   std::vector<double> figures) {
+    if (!group) return figures;
+    std::vector<torch::Tensor> parts;
+    for (const torch::Tensor& p : parameters) {
+      parts.push_back(p.grad().defined() ? p.grad().reshape(-1) : torch::zeros({p.numel()}));
+    }
+    parts.push_back(torch::tensor(std::vector<float>(figures.begin(), figures.end())));
+    torch::Tensor flat = torch::cat(parts);
+    SumAcrossRanks(flat);
+    int64_t at = 0;
+    for (const torch::Tensor& p : parameters) {
+      if (p.grad().defined()) p.mutable_grad().copy_(flat.slice(0, at, at + p.numel()).view_as(p));
+      at += p.numel();
+    }
+    for (double& figure : figures) figure = flat[at++].item<double>();
+    return figures;
+  }
 
   void UseThreads() const {
     // a TorchScript policy evaluated in between sets one thread (rl/torchscript_policy.h)
@@ -84,8 +116,13 @@ struct Ppo::Impl {
   }
 };
 
-Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::string& initial_policy)
+Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::string& initial_policy,
+         const PpoWorkers& workers)
     : impl_(std::make_unique<Impl>()) {
+  Require(workers.world >= 1, "workers", "at least 1");
+  Require(workers.rank >= 0 && workers.rank < workers.world, "rank", "in [0, workers)");
+  Require(workers.world == 1 || !workers.rendezvous_file.empty(), "rendezvous_file",
+          "given for several workers");
   Require(config.envs >= 1, "envs", "at least 1");
   Require(config.rollout_steps >= 1, "rollout_steps", "at least 1");
   Require(config.epochs >= 1, "epochs", "at least 1");
@@ -110,8 +147,14 @@ Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::stri
   impl.std = start.std;
   impl.anchor = ReadActor(initial_policy).actor;
   for (torch::Tensor& p : impl.anchor->parameters()) p.requires_grad_(false);
-  torch::manual_seed(config.seed);  // the value network's initial weights
-  impl.value = Mlp(kObservationSize, config.value_hidden, 1);
+  {
+    // the value network's initial weights, from torch's process-wide generator: learners made at once on
+    // several threads (a test's workers) take turns
+    static std::mutex seeding;
+    const std::lock_guard<std::mutex> lock(seeding);
+    torch::manual_seed(config.seed);
+    impl.value = Mlp(kObservationSize, config.value_hidden, 1);
+  }
   impl.log_std = torch::full({kActionSize}, std::log(config.initial_std), torch::kFloat32).requires_grad_();
   impl.generator = at::detail::createCPUGenerator(config.seed);
   impl.actor_optimizer = std::make_unique<torch::optim::Adam>(
@@ -119,6 +162,25 @@ Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::stri
   impl.value_optimizer = std::make_unique<torch::optim::Adam>(
       impl.value->parameters(), torch::optim::AdamOptions(config.value_learning_rate).eps(1e-5));
   impl.envs = std::make_unique<VectorEnv>(task, config.envs, config.threads);
+  impl.workers = workers;
+  if (workers.world > 1) {
+    const auto timeout = std::chrono::milliseconds(static_cast<int64_t>(workers.timeout_s * 1000.0));
+    try {
+      auto store = c10::make_intrusive<c10d::FileStore>(workers.rendezvous_file, workers.world);
+      store->setTimeout(timeout);
+      auto options = c10d::ProcessGroupGloo::Options::create();
+      options->timeout = timeout;
+      options->devices.push_back(workers.address.empty()
+                                     ? c10d::ProcessGroupGloo::createDefaultDevice()
+                                     : c10d::ProcessGroupGloo::createDeviceForHostname(workers.address));
+      impl.group = c10::make_intrusive<c10d::ProcessGroupGloo>(store, workers.rank, workers.world, options);
+    } catch (const std::exception& error) {  // c10::Error: a rank that never came, an address not here
+      const std::string what = error.what();
+      throw std::runtime_error("PPO worker " + std::to_string(workers.rank) + " of " +
+                               std::to_string(workers.world) + ": no rendezvous through " +
+                               workers.rendezvous_file + " (" + what.substr(0, what.find('\n')) + ")");
+    }
+  }
 }
 
 Ppo::~Ppo() = default;
@@ -136,7 +198,18 @@ std::shared_ptr<Ppo::Rollout> Ppo::Collect() {
   const int n = c.envs;
   const int steps = c.rollout_steps;
   VectorEnv& envs = *impl.envs;
-  envs.Reset(physics::StreamSeed(c.seed, static_cast<uint64_t>(impl.iteration)));
+  // alone: the episodes of the stream (seed, iteration), the noise from the learner's generator; rank r of W:
+  // the stream (seed, iteration, r) and the noise of (seed, iteration, W + r), the generator kept for the
+  // update's permutations, which must be equal on every rank
+  uint64_t stream = physics::StreamSeed(c.seed, static_cast<uint64_t>(impl.iteration));
+  at::Generator noise = impl.generator;
+  if (impl.group) {
+    const auto world = static_cast<uint64_t>(impl.workers.world),
+               rank = static_cast<uint64_t>(impl.workers.rank);
+    noise = at::detail::createCPUGenerator(physics::StreamSeed(stream, world + rank));
+    stream = physics::StreamSeed(stream, rank);
+  }
+  envs.Reset(stream);
   auto rollout = std::make_shared<Rollout>();
   std::vector<torch::Tensor> observations, actions, log_probs;
   std::vector<float> rewards(static_cast<size_t>(steps) * n), values(rewards.size()), ended(rewards.size());
@@ -147,7 +220,7 @@ std::shared_ptr<Ppo::Rollout> Ppo::Collect() {
     const torch::Tensor s = Normalise(ToTensor(envs.observations()), impl.mean, impl.std);
     const torch::Tensor mu = impl.Mean(s);
     const torch::Tensor a =
-        (mu + sigma * torch::randn({n, kActionSize}, impl.generator, torch::kFloat32)).contiguous();
+        (mu + sigma * torch::randn({n, kActionSize}, noise, torch::kFloat32)).contiguous();
     const torch::Tensor v = impl.Value(s).contiguous();
     std::copy(v.data_ptr<float>(), v.data_ptr<float>() + n, values.begin() + static_cast<size_t>(t) * n);
     observations.push_back(s);
@@ -203,20 +276,38 @@ PpoStats Ppo::Update(const Rollout& rollout) {
   impl.UseThreads();
   PpoStats stats;
   stats.actor_updated = impl.iteration >= c.value_warmup_iterations;
-  const int64_t total = rollout.observations.size(0);
-  const int64_t minibatch = std::min<int64_t>(c.minibatch, total);
+  const int world = impl.workers.world;
+  const int64_t local = rollout.observations.size(0);
+  const int64_t total = local * world;  // rank r's rows are [r local, (r + 1) local) of the global rollout
+  if (world > 1) {
+    torch::Tensor sizes = torch::tensor({static_cast<double>(local), static_cast<double>(local * local)});
+    impl.SumAcrossRanks(sizes);  // Σn = W n and Σn² = W n² only if every rank has n rows
+    if (sizes[0].item<double>() != static_cast<double>(total) ||
+        sizes[1].item<double>() != static_cast<double>(total * local)) {
+      throw std::runtime_error("PPO worker " + std::to_string(impl.workers.rank) +
+                               ": the ranks' rollouts differ in size (envs and rollout_steps must be equal)");
+    }
+  }
+  const int64_t minibatch = std::min<int64_t>(static_cast<int64_t>(c.minibatch) * world, total);
+  // a minibatch's mean: alone, of its rows; rank r, its rows' share of the global minibatch's
+  const auto average = [&](const torch::Tensor& per_row) {
+    return world == 1 ? per_row.mean() : per_row.sum() / static_cast<double>(minibatch);
+  };
   int value_batches = 0, actor_batches = 0;
   bool stop = false;
   for (int epoch = 0; epoch < c.epochs && !stop; ++epoch) {
     ++stats.epochs;
     const torch::Tensor order = torch::randperm(total, impl.generator, torch::kLong);
     for (int64_t first = 0; first + minibatch <= total; first += minibatch) {
-      const torch::Tensor rows = order.slice(0, first, first + minibatch);
+      torch::Tensor rows = order.slice(0, first, first + minibatch);
+      if (world > 1) {
+        const torch::Tensor shifted = rows - impl.workers.rank * local;
+        rows = shifted.masked_select(shifted.ge(0).logical_and(shifted.lt(local)));
+      }
       const torch::Tensor s = rollout.observations.index_select(0, rows);
       if (stats.actor_updated) {
         const torch::Tensor a = rollout.actions.index_select(0, rows);
         torch::Tensor advantage = rollout.advantages.index_select(0, rows);
-        advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8);
         const torch::Tensor mean = impl.Mean(s);
         const torch::Tensor log_ratio =
             LogProbability(a, mean, impl.log_std) - rollout.log_probs.index_select(0, rows);
@@ -225,8 +316,24 @@ PpoStats Ppo::Update(const Rollout& rollout) {
         double kl = 0.0, clipped = 0.0;
         {
           torch::NoGradGuard no_grad;
-          kl = ((ratio - 1.0) - log_ratio).mean().item<double>();
-          clipped = ((ratio - 1.0).abs() > c.clip).to(torch::kFloat32).mean().item<double>();
+          const torch::Tensor kl_rows = (ratio - 1.0) - log_ratio;
+          const torch::Tensor clipped_rows = ((ratio - 1.0).abs() > c.clip).to(torch::kFloat32);
+          if (world == 1) {
+            advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8);
+            kl = kl_rows.mean().item<double>();
+            clipped = clipped_rows.mean().item<double>();
+          } else {  // the global minibatch's: mean and σ of the advantages (unbiased, as std()), KL, clipping
+            torch::Tensor sums =
+                torch::stack({advantage.sum(), advantage.pow(2).sum(), kl_rows.sum(), clipped_rows.sum()})
+                    .to(torch::kFloat64);
+            impl.SumAcrossRanks(sums);
+            const double m = static_cast<double>(minibatch), advantage_mean = sums[0].item<double>() / m;
+            const double variance =
+                (sums[1].item<double>() - m * advantage_mean * advantage_mean) / (m - 1.0);
+            advantage = (advantage - advantage_mean) / (std::sqrt(std::max(0.0, variance)) + 1e-8);
+            kl = sums[2].item<double>() / m;
+            clipped = sums[3].item<double>() / m;
+          }
           anchor_mean = torch::tanh(impl.anchor->forward(s));
         }
         if (c.target_kl > 0.0 && kl > 1.5 * c.target_kl) {  // the policy moved far enough: stop here
@@ -234,28 +341,35 @@ PpoStats Ppo::Update(const Rollout& rollout) {
           break;
         }
         const torch::Tensor surrogate =
-            -torch::min(ratio * advantage, ratio.clamp(1.0 - c.clip, 1.0 + c.clip) * advantage).mean();
-        const torch::Tensor entropy = (impl.log_std + 0.5 + kLogSqrt2Pi).sum();
+            -average(torch::min(ratio * advantage, ratio.clamp(1.0 - c.clip, 1.0 + c.clip) * advantage));
+        // not a mean over rows: each rank adds its share
+        const torch::Tensor entropy = (impl.log_std + 0.5 + kLogSqrt2Pi).sum() / world;
         const torch::Tensor anchor_kl =
-            ((mean - anchor_mean).pow(2) / (2.0 * (2.0 * impl.log_std.detach()).exp())).sum(-1).mean();
+            average(((mean - anchor_mean).pow(2) / (2.0 * (2.0 * impl.log_std.detach()).exp())).sum(-1));
         const torch::Tensor actor_loss =
             surrogate - c.entropy_coefficient * entropy + c.anchor_coefficient * anchor_kl;
         impl.actor_optimizer->zero_grad();
         actor_loss.backward();
+        const std::vector<double> figures =
+            impl.SumGradients(impl.ActorParameters(), {surrogate.item<double>(), anchor_kl.item<double>()});
         torch::nn::utils::clip_grad_norm_(impl.ActorParameters(), c.max_grad_norm);
         impl.actor_optimizer->step();
         ++actor_batches;
-        stats.policy_loss += surrogate.item<double>();
-        stats.anchor_kl += anchor_kl.item<double>();
+        stats.policy_loss += figures[0];
+        stats.anchor_kl += figures[1];
         stats.approx_kl += kl;
         stats.clip_fraction += clipped;
       }
-      const torch::Tensor value_loss = torch::mse_loss(impl.Value(s), rollout.returns.index_select(0, rows));
+      const torch::Tensor returns = rollout.returns.index_select(0, rows);
+      const torch::Tensor value_loss =
+          world == 1 ? torch::mse_loss(impl.Value(s), returns) : average((impl.Value(s) - returns).pow(2));
       impl.value_optimizer->zero_grad();
       value_loss.backward();
+      const std::vector<double> figures =
+          impl.SumGradients(impl.value->parameters(), {value_loss.item<double>()});
       torch::nn::utils::clip_grad_norm_(impl.value->parameters(), c.max_grad_norm);
       impl.value_optimizer->step();
-      stats.value_loss += value_loss.item<double>();
+      stats.value_loss += figures[0];
       ++value_batches;
     }
   }
@@ -266,22 +380,55 @@ PpoStats Ppo::Update(const Rollout& rollout) {
     stats.anchor_kl /= actor_batches;
     stats.clip_fraction /= actor_batches;
   }
+  // the rollout's figures: the global rollout's with several workers
+  torch::Tensor sums;
   {
     torch::NoGradGuard no_grad;
-    const double variance = rollout.returns.var().item<double>();
-    stats.explained_variance =
-        variance > 0.0 ? 1.0 - (rollout.returns - rollout.values).var().item<double>() / variance : 0.0;
+    const torch::Tensor residual = rollout.returns - rollout.values;
+    sums = torch::stack(
+               {rollout.returns.sum(), rollout.returns.pow(2).sum(), residual.sum(), residual.pow(2).sum()})
+               .to(torch::kFloat64);
+    sums = torch::cat(
+        {sums, torch::tensor({static_cast<double>(rollout.episodes), static_cast<double>(rollout.successes),
+                              rollout.return_sum, rollout.docked_step_sum})});
+    impl.SumAcrossRanks(sums);
     stats.std_mean = impl.log_std.exp().mean().item<double>();
   }
+  const double n = static_cast<double>(total);
+  const auto unbiased_variance = [&](int at) {
+    const double sum = sums[at].item<double>(), squares = sums[at + 1].item<double>();
+    return (squares - sum * sum / n) / (n - 1.0);
+  };
+  const double variance = world == 1 ? rollout.returns.var().item<double>() : unbiased_variance(0);
+  const double residual_variance =
+      world == 1 ? (rollout.returns - rollout.values).var().item<double>() : unbiased_variance(2);
+  stats.explained_variance = variance > 0.0 ? 1.0 - residual_variance / variance : 0.0;
   ++impl.iteration;
   impl.env_steps += total;
   stats.iteration = impl.iteration;
   stats.env_steps = impl.env_steps;
-  stats.episodes = rollout.episodes;
-  stats.successes = rollout.successes;
-  stats.return_mean = rollout.episodes > 0 ? rollout.return_sum / rollout.episodes : 0.0;
-  stats.docked_step_mean = rollout.successes > 0 ? rollout.docked_step_sum / rollout.successes : 0.0;
+  stats.episodes = static_cast<int>(sums[4].item<double>());
+  stats.successes = static_cast<int>(sums[5].item<double>());
+  stats.return_mean = stats.episodes > 0 ? sums[6].item<double>() / stats.episodes : 0.0;
+  stats.docked_step_mean = stats.successes > 0 ? sums[7].item<double>() / stats.successes : 0.0;
   return stats;
+}
+
+std::shared_ptr<Ppo::Rollout> Ppo::Rows(const Rollout& rollout, int64_t begin, int64_t end) {
+  auto rows = std::make_shared<Rollout>();
+  for (auto [to, from] :
+       {std::pair{&rows->observations, &rollout.observations}, std::pair{&rows->actions, &rollout.actions},
+        std::pair{&rows->log_probs, &rollout.log_probs}, std::pair{&rows->values, &rollout.values},
+        std::pair{&rows->advantages, &rollout.advantages}, std::pair{&rows->returns, &rollout.returns}}) {
+    *to = from->slice(0, begin, end).clone();
+  }
+  if (begin == 0) {  // the episodes go with the first share
+    rows->episodes = rollout.episodes;
+    rows->successes = rollout.successes;
+    rows->return_sum = rollout.return_sum;
+    rows->docked_step_sum = rollout.docked_step_sum;
+  }
+  return rows;
 }
 
 void Ppo::Save(const std::string& path) const {

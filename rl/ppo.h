@@ -20,6 +20,18 @@
 // actor's success in the README's measurements; without the anchor, or with σ 0.2, the actor stopped
 // docking within ten iterations.
 //
+// Data-parallel workers (PpoWorkers): W processes, each with its own environments, train one policy as
+// synchronous PPO does with several actors (Schulman et al. 2017, §5; DD-PPO, Wijmans et al. 2020, in its
+// synchronous form). Rank r's samples are rows [r N, (r + 1) N) of one global rollout of W N rows; every
+// epoch draws one permutation of those rows, the same on every rank (the learners' generators stay equal),
+// so every minibatch is a global one of W × minibatch rows; each rank's loss is the sum over its rows of the
+// minibatch divided by the global size, the advantages are normalised with the minibatch's global mean and
+// σ, and the gradients, the KL of the early stop and the figures are summed across ranks by c10d's Gloo
+// all-reduce (libtorch's own). Every rank so takes the same optimiser step from the same gradients and the
+// networks stay equal: W workers of E environments update as one learner of W E environments with a W times
+// larger minibatch would, to float rounding. Rank r's episodes and exploration noise come from the streams
+// (seed, iteration, r).
+//
 // libtorch stays behind this header (PIMPL).
 
 #include <cstdint>
@@ -54,12 +66,24 @@ struct PpoConfig {
   // it. 0: plain PPO.
   double anchor_coefficient = 1.0;
   double max_grad_norm = 0.5;
-  double target_kl = 0.02;        // ≤ 0: every epoch runs
-  double initial_std = 0.05;      // σ of every action at the start, in actions of [−1, 1]
+  double target_kl = 0.02;    // ≤ 0: every epoch runs
+  double initial_std = 0.05;  // σ of every action at the start, in actions of [−1, 1]
   int value_warmup_iterations = 5;
   int value_hidden = 256;
   uint64_t seed = 1;
   int threads = 1;  // environment threads and libtorch's intra-op threads
+};
+
+/// Who this learner is among several that train one policy together; world 1: alone.
+struct PpoWorkers {
+  int rank = 0;
+  int world = 1;
+  // world > 1: the rendezvous, a file every rank can reach (c10d's FileStore), new for each training
+  std::string rendezvous_file;
+  // the address this rank's Gloo connections bind, which the others reach ("": the one this host's name
+  // resolves to)
+  std::string address;
+  double timeout_s = 300.0;  // for the other ranks to join, and for any collective step
 };
 
 /// One iteration's figures: its rollout's episodes and its update's losses.
@@ -97,16 +121,22 @@ class Ppo {
   struct Rollout;  // one iteration's samples, advantages and returns (rl/ppo.cc)
 
   /// A learner on `task` whose actor is `initial_policy`'s (a policy.pt that TD3-BC or PPO exported).
-  /// Throws std::invalid_argument naming the file, or the config field that is out of range.
-  Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::string& initial_policy);
+  /// Throws std::invalid_argument naming the file, or the config field that is out of range. With several
+  /// `workers`, returns once every rank has joined (std::runtime_error after workers.timeout_s).
+  Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::string& initial_policy,
+      const PpoWorkers& workers = {});
   ~Ppo();
 
   /// Rolls out and updates: Update(*Collect()).
   PpoStats Iterate();
   /// The next iteration's rollout with the current policy (stochastic actions).
   std::shared_ptr<Rollout> Collect();
-  /// The update on `rollout`, counted as an iteration (tests update on one rollout repeatedly).
+  /// The update on `rollout`, counted as an iteration (tests update on one rollout repeatedly). With
+  /// several workers, every rank calls it at once, each with its own rollout of the same size.
   PpoStats Update(const Rollout& rollout);
+  /// Rows [begin, end) of `rollout`: the share of one rank, for comparing workers with one learner on the
+  /// same data.
+  static std::shared_ptr<Rollout> Rows(const Rollout& rollout, int64_t begin, int64_t end);
 
   int64_t iteration() const;
   const PpoConfig& config() const;

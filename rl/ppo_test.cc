@@ -5,7 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <exception>
+#include <filesystem>
 #include <stdexcept>
+#include <thread>
+#include <vector>
 
 #include "rl/torch_networks.h"
 #include "rl/torchscript_policy.h"
@@ -133,6 +137,113 @@ TEST(Ppo, StartsAsTheInitialPolicyAndWarmsUpTheValueFirst) {
   EXPECT_NE(TorchScriptPolicy(exported).Act(observation), before.Act(observation));
   EXPECT_EQ(tuned.env_steps, 2 * 2 * 64);
   EXPECT_NEAR(tuned.std_mean, Small().initial_std, 0.01);  // σ moved a little from its start
+}
+
+// Runs `work(rank)` for two workers at once on threads, each a learner of its own; rethrows what one threw.
+template <class Work>
+void OnTwoWorkers(const Work& work) {
+  std::exception_ptr failed[2];
+  std::vector<std::thread> threads;
+  for (int rank = 0; rank < 2; ++rank) {
+    threads.emplace_back([&, rank] {
+      try {
+        work(rank);
+      } catch (...) {
+        failed[rank] = std::current_exception();
+      }
+    });
+  }
+  for (auto& thread : threads) thread.join();
+  for (const auto& error : failed) {
+    if (error) std::rethrow_exception(error);
+  }
+}
+
+PpoWorkers Worker(int rank, const std::filesystem::path& rendezvous) {
+  PpoWorkers workers;
+  workers.rank = rank;
+  workers.world = 2;
+  workers.rendezvous_file = rendezvous.string();
+  workers.address = "127.0.0.1";
+  workers.timeout_s = 60.0;
+  return workers;
+}
+
+// Two workers, each updating on its half of one rollout (with half the minibatch), take the steps one
+// learner takes on the whole: the same losses and the same policy after two updates, to float rounding
+// (the sums run in another order, float32 alone, float64 across workers), and exactly the same policy on both
+// workers.
+TEST(Ppo, TwoWorkersUpdateAsOneLearnerOnTheSameData) {
+  test_support::TestFolder folder("ppo_workers");
+  const std::string initial = InitialPolicy(folder);
+  PpoConfig config = Small();  // 2 x 64 rows, minibatches of 64
+  config.value_warmup_iterations = 0;
+  config.target_kl = 0.0;
+  config.actor_learning_rate = 1e-3;
+  config.value_learning_rate = 1e-3;
+  const std::shared_ptr<Ppo::Rollout> rollout = Ppo(ShortTask(), config, initial).Collect();
+  Ppo alone(ShortTask(), config, initial);  // a fresh generator: the permutations the workers draw
+  PpoStats one[2];
+  for (PpoStats& stats : one) stats = alone.Update(*rollout);
+  alone.ExportPolicy((folder.path() / "alone.pt").string());
+
+  PpoConfig half = config;
+  half.minibatch = 32;
+  PpoStats two[2][2];
+  OnTwoWorkers([&](int rank) {
+    Ppo worker(ShortTask(), half, initial, Worker(rank, folder.path() / "rendezvous"));
+    const std::shared_ptr<Ppo::Rollout> share = Ppo::Rows(*rollout, 64 * rank, 64 * (rank + 1));
+    for (PpoStats& stats : two[rank]) stats = worker.Update(*share);
+    worker.ExportPolicy((folder.path() / ("worker" + std::to_string(rank) + ".pt")).string());
+  });
+  for (int update = 0; update < 2; ++update) {
+    SCOPED_TRACE(update);
+    for (const PpoStats& stats : {two[0][update], two[1][update]}) {
+      EXPECT_NEAR(stats.policy_loss, one[update].policy_loss, 1e-5);
+      EXPECT_NEAR(stats.value_loss, one[update].value_loss, 1e-5 * one[update].value_loss);
+      EXPECT_NEAR(stats.approx_kl, one[update].approx_kl, 1e-4 * one[update].approx_kl);
+      EXPECT_NEAR(stats.anchor_kl, one[update].anchor_kl, 1e-6);
+      EXPECT_EQ(stats.clip_fraction, one[update].clip_fraction);
+      // float32 variances alone, float64 sums of the shares
+      EXPECT_NEAR(stats.explained_variance, one[update].explained_variance, 1e-4);
+      EXPECT_EQ(stats.episodes, one[update].episodes);
+      EXPECT_EQ(stats.env_steps, one[update].env_steps);
+    }
+  }
+  EXPECT_LT(one[1].policy_loss, 0.0);  // the actor did move: the comparison is not of two initial actors
+  TorchScriptPolicy policy((folder.path() / "alone.pt").string()),
+      first((folder.path() / "worker0.pt").string()), second((folder.path() / "worker1.pt").string()),
+      start(initial);
+  for (const double x : {-1.0, 0.0, 0.5}) {
+    const Observation observation = Observation::Constant(x) + Observation::LinSpaced(-0.5, 0.5);
+    EXPECT_EQ(first.Act(observation), second.Act(observation));
+    EXPECT_TRUE(first.Act(observation).isApprox(policy.Act(observation), 1e-5))
+        << first.Act(observation).transpose() << " | " << policy.Act(observation).transpose();
+    EXPECT_FALSE(policy.Act(observation).isApprox(start.Act(observation), 1e-3));
+  }
+}
+
+// Two workers that roll out and update (iterations of their own environments, noise and episodes) give
+// the same result for the same seed.
+TEST(Ppo, TwoWorkersAreDeterministicForASeed) {
+  test_support::TestFolder folder("ppo_workers_seed");
+  const std::string initial = InitialPolicy(folder);
+  PpoConfig config = Small();
+  config.value_warmup_iterations = 0;
+  PpoStats runs[2][2];
+  for (int run = 0; run < 2; ++run) {
+    OnTwoWorkers([&](int rank) {
+      Ppo worker(ShortTask(), config, initial, Worker(rank, folder.path() / ("run" + std::to_string(run))));
+      worker.Iterate();
+      runs[run][rank] = worker.Iterate();
+    });
+  }
+  EXPECT_EQ(runs[0][0].policy_loss, runs[1][0].policy_loss);
+  EXPECT_EQ(runs[0][0].value_loss, runs[1][0].value_loss);
+  EXPECT_EQ(runs[0][0].return_mean, runs[1][0].return_mean);
+  EXPECT_EQ(runs[0][0].policy_loss, runs[0][1].policy_loss);  // and every rank knows the global figures
+  EXPECT_EQ(runs[0][0].episodes, 4);                          // 2 workers x 2 environments x one episode
+  EXPECT_EQ(runs[0][0].env_steps, 2 * 2 * 2 * 64);
 }
 
 TEST(Ppo, ACheckpointResumesTrainingExactly) {

@@ -143,6 +143,23 @@ grep -q "td3bc: resuming from .* at update 4" "$work/train.out" || fail "rl trai
 [ "$(cut -d, -f1 "$work/train/td3bc/log.csv" | tr '\n' ' ')" = "step 2 4 6 " ] || fail "rl train log: $(cat "$work/train/td3bc/log.csv")"
 grep -q "ppo: resuming from .* at iteration 2" "$work/train.out" || fail "rl train did not resume PPO: $(cat "$work/train.out")"
 [ "$(cut -d, -f1 "$work/train/ppo/log.csv" | tr '\n' ' ')" = "iteration 1 2 3 " ] || fail "rl train PPO log: $(cat "$work/train/ppo/log.csv")"
+# PPO with two workers (this process and one it starts, gradients all-reduced through Gloo): the same seed
+# gives the same log twice, and a resumed run continues it exactly (the wall times aside)
+workers=("${train[@]}" --stage ppo --ppo-init "$work/train/td3bc/policy.pt" --ppo-workers 2)
+for run in a b; do
+  "$iapsim" rl train "$work/workers_$run" "${workers[@]}" --ppo-iterations 3 > "$work/workers_$run.out" ||
+    fail "rl train with 2 workers: $(cat "$work/workers_$run.out" "$work/workers_$run/ppo/worker-1.log")"
+done
+grep -q "ppo: from .*, 2 workers x 2 environments x 20 steps" "$work/workers_a.out" || fail "workers: $(cat "$work/workers_a.out")"
+"$iapsim" rl train "$work/workers_c" "${workers[@]}" --ppo-iterations 2 > /dev/null || fail "workers: 2 iterations"
+"$iapsim" rl train "$work/workers_c" "${workers[@]}" --ppo-iterations 3 > "$work/workers_c.out" || fail "workers: resume"
+grep -q "ppo: resuming from .* at iteration 2" "$work/workers_c.out" || fail "workers: $(cat "$work/workers_c.out")"
+for run in b c; do
+  cmp <(cut -d, -f1-16 "$work/workers_a/ppo/log.csv") <(cut -d, -f1-16 "$work/workers_$run/ppo/log.csv") ||
+    fail "2 workers: $run's log differs: $(cat "$work/workers_a/ppo/log.csv" "$work/workers_$run/ppo/log.csv")"
+done
+[ "$(wc -l < "$work/workers_a/ppo/log.csv")" -eq 4 ] || fail "workers: $(cat "$work/workers_a/ppo/log.csv")"
+! pgrep -f -- "--ppo-rendezvous $work" > /dev/null || fail "a PPO worker is left running"
 for policy in td3bc ppo; do
   "$iapsim" rl eval --task "$src/configs/rl/docking.yaml" --policy "$work/train/$policy/policy.pt" --episodes 1 \
     --set termination.max_steps=20 > "$work/eval_$policy.out" || fail "rl eval of the $policy policy: $(cat "$work/eval_$policy.out")"

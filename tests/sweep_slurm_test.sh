@@ -3,7 +3,8 @@
 # 127.0.0.1, tools/slurm_local_cluster.sh), stopped afterwards by pid (issue 22): the same sweep on the local
 # pool and as a job array gives the same table; a task killed outright is a failed run with its reason, and
 # --resume reruns only it; Ctrl-C cancels the array and leaves nothing running; sbatch's refusal is reported.
-# And a graph with a process started by srun inside an allocation (host: srun) records the one-host bag.
+# And a graph with a process started by srun inside an allocation (host: srun) records the one-host bag, and
+# PPO's workers as srun's tasks train as the same workers started locally.
 # usage: sweep_slurm_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
 # shellcheck source=tests/support/script.sh
@@ -107,6 +108,22 @@ expect_exit 2 "processes.sensors.host: srun starts the process in the Slurm allo
   env -u SLURM_JOB_ID "$iapsim" run "${graph[@]}" "${step[@]}"
 expect_exit 2 "processes.sensors.slurm_node: 'no_such_node' is not a node of the cluster" \
   salloc --nodes=1 --quiet "$iapsim" run "${graph[@]}" --set processes.sensors.host=srun --set processes.sensors.slurm_node=no_such_node
+
+# PPO's workers as the tasks of `srun --ntasks=2`: the log of two workers this process starts itself
+rl=(--task "$src/configs/rl/docking.yaml" --set termination.max_steps=200 --expert-episodes 2 --eval-every 2
+    --eval-episodes 1 --ppo-envs 2 --ppo-rollout-steps 20 --ppo-eval-every 1 --td3bc-steps 2)
+"$iapsim" rl train "$work/rl" "${rl[@]}" --ppo-iterations 0 > "$work/rl.out" || fail "td3bc: $(cat "$work/rl.out")"
+rl+=(--ppo-iterations 2)
+"$iapsim" rl train "$work/rl_local" "${rl[@]}" --stage ppo --ppo-init "$work/rl/td3bc/policy.pt" --ppo-workers 2 \
+  > "$work/rl_local.out" || fail "2 local workers: $(cat "$work/rl_local.out")"
+srun --ntasks=2 --quiet "$iapsim" rl train "$work/rl_srun" "${rl[@]}" --stage ppo --ppo-init "$work/rl/td3bc/policy.pt" \
+  --ppo-workers 2 > "$work/rl_srun.out" 2>&1 || fail "srun: $(cat "$work/rl_srun.out")"
+[ "$(grep -c "ppo: from" "$work/rl_srun.out")" -eq 1 ] || fail "srun: not one first worker: $(cat "$work/rl_srun.out")"
+cmp <(cut -d, -f1-16 "$work/rl_local/ppo/log.csv") <(cut -d, -f1-16 "$work/rl_srun/ppo/log.csv") ||
+  fail "srun's workers differ from local ones: $(cat "$work/rl_local/ppo/log.csv" "$work/rl_srun/ppo/log.csv")"
+expect_exit 2 "--ppo-workers 3: srun started 2 tasks" \
+  srun --ntasks=2 --quiet "$iapsim" rl train "$work/rl_srun" "${rl[@]}" --stage ppo --ppo-init "$work/rl/td3bc/policy.pt" --ppo-workers 3
+expect_exit 2 "--stage all under srun --ntasks=2" srun --ntasks=2 --quiet "$iapsim" rl train "$work/rl_all" "${rl[@]}" --ppo-workers 2
 [ -z "$(squeue --noheader)" ] || fail "jobs left queued: $(squeue)"
 
 echo "sweep_slurm_test: all checks passed"

@@ -28,6 +28,8 @@ packages=(
   # libtorch (CPU) for the learned policies, and an optimised BLAS under it (libtorch links libblas.so.3,
   # Debian's reference BLAS unless this provides it: about 2.5x faster for a training step, shared NOTES)
   libtorch-dev libopenblas0-pthread
+  # Gloo's headers, which libtorch's c10d ProcessGroupGloo needs: PPO's workers all-reduce through it
+  libgloo-dev
   # `iapsim sweep --slurm` (sbatch, squeue, scancel), and the one-node cluster of tools/slurm_local_cluster.sh
   # its tests and benchmark bring up
   slurm-client slurmctld slurmd munge

@@ -70,13 +70,19 @@ struct RlTrainArgs {
   int64_t ppo_iterations = 50;
   int ppo_envs = rl::PpoConfig().envs;
   int ppo_rollout_steps = rl::PpoConfig().rollout_steps;  // per environment and iteration
-  int64_t ppo_eval_every = 5;    // iterations between evaluations (and checkpoints)
-  std::string ppo_init;          // the policy PPO starts from; empty: td3bc/policy.pt
+  int64_t ppo_eval_every = 5;                             // iterations between evaluations (and checkpoints)
+  std::string ppo_init;  // the policy PPO starts from; empty: td3bc/policy.pt
   double ppo_actor_learning_rate = rl::PpoConfig().actor_learning_rate;
   double ppo_initial_std = rl::PpoConfig().initial_std;
   int ppo_value_warmup = rl::PpoConfig().value_warmup_iterations;
   double ppo_discount = -1.0;  // < 0: the task's reward.discount, which potential shaping needs
   double ppo_anchor = rl::PpoConfig().anchor_coefficient;
+  // PPO's data-parallel workers (rl/ppo.h): this process and ppo_workers - 1 it starts, or the tasks of
+  // `srun --ntasks=N`; each rolls out ppo_envs environments
+  int ppo_workers = 1;
+  int ppo_rank = 0;                       // a worker the first one started (hidden options)
+  std::string ppo_rendezvous;             // ... and its rendezvous file
+  std::vector<std::string> command_line;  // this process's arguments after the program, for the workers
 };
 /// The seed's offline-to-online pipeline (§IV-E, Fig. 7): the expert's data set, then TD3-BC on it, then PPO
 /// from the TD3-BC actor, each evaluated and checkpointed as it goes; a stage whose output exists resumes

@@ -120,7 +120,17 @@ int main(int argc, char** argv) {
       ->add_option("--ppo-init", train.ppo_init,
                    "the TorchScript policy PPO starts from (default DIR/td3bc/policy.pt)")
       ->check(CLI::ExistingFile);
+  train_cmd
+      ->add_option("--ppo-workers", train.ppo_workers,
+                   "PPO workers, each with --ppo-envs environments, their gradients all-reduced (Gloo): this "
+                   "process starts the others, or under `srun --ntasks=N` each task is one")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  // how the first worker starts the others
+  train_cmd->add_option("--ppo-rank", train.ppo_rank)->group("")->check(CLI::Range(1, 4095));
+  train_cmd->add_option("--ppo-rendezvous", train.ppo_rendezvous)->group("");
 
+  train.command_line.assign(argv + 1, argv + argc);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

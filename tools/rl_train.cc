@@ -9,11 +9,20 @@
 //   DIR/ppo/log.csv, curves.png             rollouts and updates per iteration, evaluations every
 //                                           `ppo_eval_every` iterations (Fig. 19(a))
 //   DIR/ppo/policy.pt                       the deterministic actor as TorchScript
+//   DIR/ppo/worker-R.log                    --ppo-workers N: the output of each worker this one started
+
+#include <fcntl.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <chrono>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -128,6 +137,109 @@ void Td3BcStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& da
   std::printf("td3bc: %s, %s%s\n", policy.c_str(), log_file.c_str(), plotted ? ", curves.png" : "");
 }
 
+// The workers after the first, started by it as this program with its own arguments, --stage ppo and their
+// rank; each one's output in DIR/ppo/worker-R.log. They follow it if it dies (PR_SET_PDEATHSIG), and are
+// stopped if it leaves early.
+class LocalWorkers {
+ public:
+  LocalWorkers(const RlTrainArgs& args, const fs::path& dir, const std::string& rendezvous) {
+    std::vector<std::string> common{"/proc/self/exe"};
+    for (size_t i = 0; i < args.command_line.size(); ++i) {
+      const std::string& a = args.command_line[i];
+      if (a == "--stage") {
+        ++i;  // and its value
+      } else if (a.rfind("--stage=", 0) != 0) {
+        common.push_back(a);
+      }
+    }
+    common.insert(common.end(), {"--stage", "ppo", "--ppo-rendezvous", rendezvous});
+    for (int rank = 1; rank < args.ppo_workers; ++rank) {
+      std::vector<std::string> command = common;
+      command.insert(command.end(), {"--ppo-rank", std::to_string(rank)});
+      logs_.push_back((dir / ("worker-" + std::to_string(rank) + ".log")).string());
+      std::vector<char*> argv;
+      for (std::string& part : command) argv.push_back(part.data());
+      argv.push_back(nullptr);
+      const pid_t parent = getpid();
+      const pid_t pid = fork();
+      if (pid < 0) throw std::runtime_error("ppo: cannot start worker " + std::to_string(rank));
+      if (pid == 0) {
+        prctl(PR_SET_PDEATHSIG, SIGTERM);
+        if (getppid() != parent) _exit(1);
+        const int fd = open(logs_.back().c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (fd >= 0) {
+          dup2(fd, STDOUT_FILENO);
+          dup2(fd, STDERR_FILENO);
+          close(fd);
+        }
+        execv(argv[0], argv.data());
+        _exit(127);
+      }
+      pids_.push_back(pid);
+    }
+  }
+  // Waits for each; throws naming the log of one that failed.
+  void Wait() {
+    for (size_t i = 0; i < pids_.size(); ++i) {
+      int status = 0;
+      waitpid(pids_[i], &status, 0);
+      pids_[i] = -1;
+      if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        throw std::runtime_error("ppo: worker " + std::to_string(i + 1) + " failed; see " + logs_[i]);
+      }
+    }
+  }
+  ~LocalWorkers() {
+    for (const pid_t pid : pids_) {
+      if (pid <= 0) continue;
+      kill(pid, SIGTERM);
+      waitpid(pid, nullptr, 0);
+    }
+  }
+  LocalWorkers(const LocalWorkers&) = delete;
+  LocalWorkers& operator=(const LocalWorkers&) = delete;
+
+ private:
+  std::vector<pid_t> pids_;
+  std::vector<std::string> logs_;
+};
+
+// Who this process is among PPO's workers: alone; the first of --ppo-workers N, which starts the others
+// here; one of those (--ppo-rank); or task SLURM_PROCID of `srun --ntasks=N` (SLURM_STEP_NUM_TASKS = N),
+// meeting the others through DIR/ppo/rendezvous-JOB.STEP. Gloo binds the address of the interface
+// GLOO_SOCKET_IFNAME names (PyTorch's convention) or that of the host's name; 127.0.0.1 on one host.
+// `start_others`: whether this process starts the others.
+rl::PpoWorkers PpoWorkersOf(const RlTrainArgs& args, const fs::path& dir, bool* start_others) {
+  *start_others = false;
+  rl::PpoWorkers workers;
+  workers.world = args.ppo_workers;
+  workers.timeout_s = 600.0;  // the first worker evaluates and checkpoints while the others wait
+  if (args.ppo_workers == 1) return workers;
+  const char* step_tasks = std::getenv("SLURM_STEP_NUM_TASKS");
+  const char* rank = std::getenv("SLURM_PROCID");
+  if (args.ppo_rank == 0 && step_tasks && std::atoi(step_tasks) > 1) {
+    if (std::atoi(step_tasks) != args.ppo_workers || !rank) {
+      throw std::invalid_argument("--ppo-workers " + std::to_string(args.ppo_workers) + ": srun started " +
+                                  step_tasks + " tasks; give it as many as workers");
+    }
+    workers.rank = std::atoi(rank);
+    workers.rendezvous_file = (dir / ("rendezvous-" + std::string(std::getenv("SLURM_JOB_ID")) + "." +
+                                      std::getenv("SLURM_STEP_ID")))
+                                  .string();
+    if (const char* interface = std::getenv("GLOO_SOCKET_IFNAME")) workers.address = interface;
+    return workers;
+  }
+  workers.address = "127.0.0.1";
+  workers.rank = args.ppo_rank;
+  *start_others = args.ppo_rank == 0;
+  workers.rendezvous_file = args.ppo_rank > 0
+                                ? args.ppo_rendezvous
+                                : (dir / ("rendezvous-" + std::to_string(getpid()) + "-" +
+                                          std::to_string(Clock::now().time_since_epoch().count())))
+                                      .string();
+  return workers;
+}
+
 void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& td3bc_dir) {
   const std::string initial = args.ppo_init.empty() ? (td3bc_dir / "policy.pt").string() : args.ppo_init;
   if (!fs::exists(initial)) {
@@ -146,19 +258,30 @@ void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& td3b
   config.anchor_coefficient = args.ppo_anchor;
   config.seed = args.expert.seed;
   config.threads = args.expert.threads;
-  rl::Ppo learner(task, config, initial);
+  bool start_others = false;
+  const rl::PpoWorkers workers = PpoWorkersOf(args, dir, &start_others);
+  std::unique_ptr<LocalWorkers> started;
+  if (start_others) started = std::make_unique<LocalWorkers>(args, dir, workers.rendezvous_file);
+  rl::Ppo learner(task, config, initial, workers);  // the rendezvous file goes with the last worker
   const fs::path checkpoint = dir / "checkpoint.pt", log_file = dir / "log.csv", policy = dir / "policy.pt";
   if (fs::exists(checkpoint)) {
     learner.Load(checkpoint.string());
-    std::printf("ppo: resuming from %s at iteration %lld\n", checkpoint.c_str(),
-                static_cast<long long>(learner.iteration()));
+    if (workers.rank == 0) {
+      std::printf("ppo: resuming from %s at iteration %lld\n", checkpoint.c_str(),
+                  static_cast<long long>(learner.iteration()));
+    }
+  }
+  if (workers.rank > 0) {  // the first worker logs, evaluates and checkpoints for all
+    while (learner.iteration() < args.ppo_iterations) learner.Iterate();
+    return;
   }
   StartLog(log_file, kPpoLogHeader, learner.iteration());
   std::printf(
-      "ppo: from %s, %d environments x %d steps per iteration, %lld iterations, evaluating %d episodes "
-      "every %lld\n",
-      initial.c_str(), config.envs, config.rollout_steps, static_cast<long long>(args.ppo_iterations),
-      args.eval_episodes, static_cast<long long>(args.ppo_eval_every));
+      "ppo: from %s, %d worker%s x %d environments x %d steps per iteration, %lld iterations, evaluating %d "
+      "episodes every %lld\n",
+      initial.c_str(), workers.world, workers.world == 1 ? "" : "s", config.envs, config.rollout_steps,
+      static_cast<long long>(args.ppo_iterations), args.eval_episodes,
+      static_cast<long long>(args.ppo_eval_every));
   std::printf("  %9s %9s %9s %8s %6s %8s %6s %7s %8s %9s %7s\n", "iteration", "episodes", "rollout", "value",
               "expl.", "kl", "clip", "sigma", "success", "docked", "wall");
   const Clock::time_point start = Clock::now();
@@ -198,6 +321,7 @@ void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& td3b
                 evaluated.c_str(), wall_s);
     std::fflush(stdout);
   }
+  if (started) started->Wait();
   const bool plotted =
       learner.iteration() > 0 &&
       RunPlotScript(IAPSIM_PLOT_TRAINING, {log_file.string(), (dir / "curves.png").string(), "PPO"});
@@ -210,6 +334,12 @@ int RlTrain(const RlTrainArgs& args) {
   return RunRlCommand("train", [&] {
     if (args.stage != "expert" && args.stage != "td3bc" && args.stage != "ppo" && args.stage != "all") {
       throw std::invalid_argument("--stage: expected expert, td3bc, ppo or all, got '" + args.stage + "'");
+    }
+    const char* step_tasks = std::getenv("SLURM_STEP_NUM_TASKS");
+    if (args.ppo_workers > 1 && step_tasks && std::atoi(step_tasks) > 1 && args.stage != "ppo") {
+      throw std::invalid_argument("--stage " + args.stage + " under srun --ntasks=" + step_tasks +
+                                  ": each task would run the expert and TD3-BC; run those alone, then srun "
+                                  "the PPO stage (--stage ppo)");
     }
     const fs::path out(args.out_dir);
     fs::create_directories(out / "expert");
