@@ -11,17 +11,23 @@ expect_exit 2 "'swep' is not a command; did you mean sweep?" "$iapsim" swep x.ya
 expect_exit 2 "did you mean run or rl?" "$iapsim" rn
 expect_exit 2 "the commands are run, replay," "$iapsim" fly
 expect_exit 2 "scenario is required" "$iapsim" run
+expect_exit 2 "iapsim rl: 'tran' is not a command; did you mean train?" "$iapsim" rl tran DIR
 "$iapsim" --version | grep -qx "iapsim [0-9]*\.[0-9]*\.[0-9]*" || fail "--version: $("$iapsim" --version)"
 
 # every subcommand answers --help
-for cmd in run replay info "bag reindex" export video topics echo urdf bench sweep "rl eval" "rl collect"; do
+for cmd in run replay info "bag reindex" export video topics echo urdf bench sweep rl "rl eval" "rl collect" \
+  "rl train" vio; do
   # shellcheck disable=SC2086  # "rl eval" is a subcommand and its subcommand
   "$iapsim" $cmd --help > "$work/help.out" || fail "$cmd --help"
-  case $cmd in rl*) ;; *) grep -q "^Examples:" "$work/help.out" || fail "$cmd --help shows no examples" ;; esac
+  grep -q "^Examples:" "$work/help.out" || fail "$cmd --help shows no examples"
 done
 # and the defaults
 "$iapsim" topics --help | grep -q -- "--listen FLOAT=1 " || fail "topics --help shows no default: $("$iapsim" topics --help)"
 if "$iapsim" sweep --help | grep -q "=0"; then fail "sweep --help shows a 0 that stands for 'not set': $("$iapsim" sweep --help)"; fi
+"$iapsim" rl train --help | grep -Eq -- "--ppo-workers INT:INT in \[1 - 4096\]=1( |$)" ||
+  fail "rl train --help shows no default: $("$iapsim" rl train --help)"
+"$iapsim" vio --help | grep -Eq -- "--mode TEXT:\{vio,vio_uwb,virpo,all,anchors\}=vio( |$)" ||
+  fail "vio --help shows no default: $("$iapsim" vio --help)"
 
 # a short lockstep run with a complete run directory
 "$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --duration 1 --seed 3 --out "$work/run" > "$work/run.out"

@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   using namespace iapsim::tools;
   CLI::App app("iapsim rl: the air-docking learning task (seed section VI-H)", "iapsim rl");
   app.require_subcommand(1);
+  app.option_defaults()->always_capture_default();  // every --help shows each option's default
 
   RlEvalArgs eval;
   auto* eval_cmd =
@@ -130,6 +131,23 @@ int main(int argc, char** argv) {
   train_cmd->add_option("--ppo-rank", train.ppo_rank)->group("")->check(CLI::Range(1, 4095));
   train_cmd->add_option("--ppo-rendezvous", train.ppo_rendezvous)->group("");
 
+  eval_cmd->footer(
+      "Examples:\n"
+      "  iapsim rl eval --episodes 50\n"
+      "  iapsim rl eval --policy runs/rl/ppo/policy.pt --out runs/rl/eval --graph");
+  collect_cmd->footer(
+      "Examples:\n"
+      "  iapsim rl collect expert.hdf5 --episodes 200\n"
+      "  iapsim rl collect noisy.hdf5 --action-noise 0.1 --seed 2");
+  train_cmd->footer(
+      "Examples:\n"
+      "  iapsim rl train runs/rl --td3bc-alpha 0 --td3bc-steps 4000 --ppo-iterations 0\n"
+      "  iapsim rl train runs/rl --stage ppo --ppo-workers 2\n"
+      "  srun --ntasks=4 iapsim rl train runs/rl --stage ppo --ppo-workers 4");
+  iapsim::bridge::HideEmptyDefaults(app);
+  app.footer("Examples:\n  iapsim rl eval\n  iapsim rl train runs/rl\n  iapsim rl COMMAND --help");
+  if (argc > 1 && argv[1][0] != '-' && iapsim::bridge::AnswerUnknownSubcommand(app, "iapsim rl", argv[1]))
+    return 2;
   train.command_line.assign(argv + 1, argv + argc);
   try {
     app.parse(argc, argv);

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   CLI::App app(
       "iapsim vio: visual-inertial odometry of every stereo sub-aircraft over a recorded run (seed VI-G)",
       "iapsim vio");
+  app.option_defaults()->always_capture_default();  // --help shows each option's default
   app.add_option("input", args.input, "a run directory (run.bag, scenario.resolved.yaml) or a bag")
       ->required()
       ->check(CLI::ExistingPath);
@@ -41,6 +42,12 @@ int main(int argc, char** argv) {
   app.add_option("--set", args.overrides, "override a setting: KEY=VALUE, e.g. virpo.sigma_link_m=0.02");
   app.add_option("--out", args.out_dir,
                  "where the TUM files and vio.json go (default: beside the bag, vio_<mode>)");
+  iapsim::bridge::HideEmptyDefaults(app);
+  app.footer(
+      "Examples:\n"
+      "  iapsim run configs/scenarios/three_star_vio.yaml --out runs/vio\n"
+      "  iapsim vio runs/vio --mode all\n"
+      "  iapsim vio runs/vio --mode virpo --sub iap/sub1 --set virpo.sigma_link_m=0.02");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
