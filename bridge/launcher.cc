@@ -497,9 +497,11 @@ nlohmann::json CountLosses(const Scenario& scenario, const nlohmann::json& proce
     if (!entry.contains("bus")) continue;
     if (entry.contains("process") && entry["process"].contains("recorded")) {
       const auto& recorded = entry["process"]["recorded"];
+      const nlohmann::json thinned = entry["process"].value("thinned", nlohmann::json::object());
       for (const auto& [topic, by_publisher] : published) {
-        if (scenario.recording.Records(topic)) {
-          add(name, topic, published_by_others(topic, name), recorded.value(topic, uint64_t{0}));
+        if (scenario.recording.Records(topic)) {  // what recording.max_rate_hz left out is not lost
+          add(name, topic, published_by_others(topic, name),
+              recorded.value(topic, uint64_t{0}) + thinned.value(topic, uint64_t{0}));
         }
       }
     } else if (scenario.mode == ClockMode::kRealtime) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <map>
 
@@ -174,6 +175,13 @@ class Recorder : public Process {
       written_.resize(stream.connection + 1, 0);
     }
     connection_topics_[stream.connection] = info.topic;
+    const double rate_hz = recording_.MaxRateHz(info.topic);
+    if (periods_ns_.size() <= static_cast<size_t>(stream.connection)) {
+      periods_ns_.resize(stream.connection + 1, 0);
+      last_windows_.resize(stream.connection + 1, -1);
+      thinned_.resize(stream.connection + 1, 0);
+    }
+    periods_ns_[stream.connection] = rate_hz > 0.0 ? std::max<int64_t>(1, std::llround(1e9 / rate_hz)) : 0;
     return stream;
   }
 
@@ -192,21 +200,32 @@ class Recorder : public Process {
     }
   }
 
+  // recording.max_rate_hz: a topic's message is kept when it is the first in its window of 1/rate of record
+  // time (sim time, so the same run thins the same messages)
   void WriteMessages(Publisher& publisher, size_t end, int64_t step_stamp_ns) {
     for (; publisher.next_message < end; ++publisher.next_message) {
       const Publisher::Message& m = publisher.messages[publisher.next_message];
-      bag_->Write(m.connection, m.stamp_ns >= 0 ? m.stamp_ns : step_stamp_ns,
-                  publisher.bytes.data() + m.offset, m.size);
+      const int64_t record_time_ns = m.stamp_ns >= 0 ? m.stamp_ns : step_stamp_ns;
+      if (const int64_t period_ns = periods_ns_[m.connection]; period_ns > 0) {
+        const int64_t window = record_time_ns / period_ns;
+        if (window <= last_windows_[m.connection]) {
+          ++thinned_[m.connection];
+          continue;
+        }
+        last_windows_[m.connection] = window;
+      }
+      bag_->Write(m.connection, record_time_ns, publisher.bytes.data() + m.offset, m.size);
       ++written_[m.connection];
     }
   }
 
   void Report(nlohmann::json* report) const {
-    std::map<std::string, uint64_t> by_topic;
+    std::map<std::string, uint64_t> by_topic, thinned;
     uint64_t messages = 0;
     for (size_t c = 0; c < written_.size(); ++c) {
       by_topic[connection_topics_[c]] += written_[c];
       messages += written_[c];
+      if (thinned_[c] > 0) thinned[connection_topics_[c]] += thinned_[c];
     }
     // everything but writing, measured as the process's CPU time less the time spent writing (reading the
     // bus, copying messages): the clock is not read for every message
@@ -215,6 +234,7 @@ class Recorder : public Process {
     const BagWriterStats& stats = bag_->stats();
     (*report)["bag"] = bag_path_;
     (*report)["recorded"] = by_topic;
+    (*report)["thinned"] = thinned;  // left out by recording.max_rate_hz
     (*report)["messages"] = messages;
     (*report)["bag_bytes"] = stats.file_bytes;
     (*report)["chunks"] = stats.chunks;
@@ -239,6 +259,9 @@ class Recorder : public Process {
   std::vector<Stream> streams_;                  // by MessageInfo::stream
   std::vector<std::string> connection_topics_;   // by bag connection
   std::vector<uint64_t> written_;                // by bag connection
+  std::vector<int64_t> periods_ns_;              // by bag connection: 1 / max_rate_hz; 0: every message
+  std::vector<int64_t> last_windows_;            // by bag connection: the window of the last message kept
+  std::vector<uint64_t> thinned_;                // by bag connection: messages left out by max_rate_hz
   int64_t last_step_stamp_ns_ = 0;               // of the newest step a publisher closed
   double step_s_ = 0.0;                          // writing to the bag, compression and system calls included
 };

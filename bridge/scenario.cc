@@ -38,16 +38,40 @@ ProcessRole ParseRole(const std::string& role) {
   return ProcessRole::kParticipant;
 }
 
-void ReadTopicList(YamlMap& map, const std::string& key, std::vector<std::string>* topics) {
+// The prefixes of the group `name` (a message names `key` of `map` when there is none).
+const std::vector<std::string>& GroupPrefixes(const YamlMap& map, const std::string& key,
+                                              const std::string& name,
+                                              const std::map<std::string, std::vector<std::string>>& groups) {
+  const auto group = groups.find(name);
+  if (group == groups.end()) {
+    std::string known;
+    for (const auto& [g, prefixes] : groups) known += (known.empty() ? "" : ", ") + g;
+    map.Fail(key, "'" + name +
+                      "' is neither a topic prefix (they start with '/') nor a group of recording.groups (" +
+                      (known.empty() ? "none" : known) + ")");
+  }
+  return group->second;
+}
+
+// A list of topic prefixes, where a name without the '/' stands for a group's (`groups`, when given).
+void ReadTopicList(YamlMap& map, const std::string& key, std::vector<std::string>* topics,
+                   const std::map<std::string, std::vector<std::string>>* groups = nullptr) {
   const YAML::Node node = map.Raw(key);
   if (!node) return;
   if (!node.IsSequence()) map.Fail(key, "expected a list of topic prefixes");
   topics->clear();
   for (const auto& item : node) {
-    if (!item.IsScalar() || item.Scalar().empty() || item.Scalar()[0] != '/') {
-      map.Fail(key, "every entry must be a topic prefix starting with '/'");
+    const std::string entry = item.IsScalar() ? item.Scalar() : "";
+    if (groups && !entry.empty() && entry[0] != '/') {
+      const auto& prefixes = GroupPrefixes(map, key, entry, *groups);
+      topics->insert(topics->end(), prefixes.begin(), prefixes.end());
+      continue;
     }
-    topics->push_back(item.Scalar());
+    if (entry.empty() || entry[0] != '/') {
+      map.Fail(key, "every entry must be a topic prefix starting with '/'" +
+                        std::string(groups ? " or a group of recording.groups" : ""));
+    }
+    topics->push_back(entry);
   }
 }
 
@@ -239,6 +263,18 @@ bool RecordingConfig::Records(const std::string& topic) const {
   return (include.empty() || starts_with_any(include)) && !starts_with_any(exclude);
 }
 
+double RecordingConfig::MaxRateHz(const std::string& topic) const {
+  double rate_hz = 0.0;
+  size_t matched = 0;
+  for (const auto& [prefix, hz] : max_rate_hz) {
+    if (topic.compare(0, prefix.size(), prefix) == 0 && prefix.size() > matched) {
+      rate_hz = hz;
+      matched = prefix.size();
+    }
+  }
+  return rate_hz;
+}
+
 int64_t Scenario::step_ns() const { return std::llround(clock.step_s * 1e9); }
 
 uint64_t Scenario::last_step() const {
@@ -330,8 +366,30 @@ Scenario Load(const std::string& path, const std::vector<std::string>& overrides
 
   YamlMap recording = top.Map("recording");
   recording.Optional("enabled", &s.recording.enabled);
-  ReadTopicList(recording, "include", &s.recording.include);
-  ReadTopicList(recording, "exclude", &s.recording.exclude);
+  YamlMap groups = recording.Map("groups");
+  for (const std::string& name : groups.Keys()) {
+    if (name.empty() ||
+        name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") != std::string::npos) {
+      groups.Fail(name, "group names use lowercase letters, digits and '_'");
+    }
+    ReadTopicList(groups, name, &s.recording.groups[name]);
+  }
+  groups.Finish();
+  ReadTopicList(recording, "include", &s.recording.include, &s.recording.groups);
+  ReadTopicList(recording, "exclude", &s.recording.exclude, &s.recording.groups);
+  YamlMap rates = recording.Map("max_rate_hz");
+  for (const std::string& key : rates.Keys()) {
+    double rate_hz = 0.0;
+    rates.OptionalInRange(key, &rate_hz, 1e-3, 1e9);
+    if (!key.empty() && key[0] == '/') {
+      s.recording.max_rate_hz[key] = rate_hz;
+    } else {
+      for (const std::string& prefix : GroupPrefixes(rates, key, key, s.recording.groups)) {
+        s.recording.max_rate_hz[prefix] = rate_hz;
+      }
+    }
+  }
+  rates.Finish();
   recording.OptionalChoice("compression", &s.recording.compression, {"none", "lz4"});
   recording.OptionalInRange("max_lag_steps", &s.recording.max_lag_steps, uint64_t{0}, uint64_t{1000000});
   recording.Finish();

@@ -61,6 +61,11 @@ struct RecordingConfig {
   std::vector<std::string> include;              // topic prefixes; empty: every topic
   std::vector<std::string> exclude{"/iapsim/"};  // protocol topics are not recorded by default
   std::string compression = "none";              // of the bag's chunks: none | lz4
+  // named lists of topic prefixes: a group's name in include, exclude and max_rate_hz stands for its prefixes
+  std::map<std::string, std::vector<std::string>> groups;
+  // topic prefix -> the most messages a second of sim time the bag keeps of each topic it covers (the
+  // longest prefix wins; none: every message): the first message of each 1/rate window of record time
+  std::map<std::string, double> max_rate_hz;
   // lockstep: how many steps the clock may run ahead of the recorder (0: it waits for the recorder every
   // step); bounds what the recorder holds in memory and in its bus queues. 500 at 1 kHz: the stereo
   // scenario's seven 210 KiB images at 20 Hz are 10 frames, 15 MiB in the render process's queue (of 64)
@@ -68,6 +73,8 @@ struct RecordingConfig {
 
   /// Whether the recorder writes `topic` (by the include and exclude prefixes).
   bool Records(const std::string& topic) const;
+  /// The rate the bag keeps of `topic` (max_rate_hz), 0 for every message.
+  double MaxRateHz(const std::string& topic) const;
 };
 
 /// local: the launcher starts the process. external: someone else does (on another host, under a debugger):

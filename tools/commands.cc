@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -96,10 +97,19 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
   if (metrics.is_object() && metrics["processes"].contains("recorder")) {
     const auto& recorder = metrics["processes"]["recorder"]["process"];
     const std::string compression = recorder["compression"].get<std::string>();
-    char ratio[64] = "";
+    char ratio[128] = "";
     if (compression != "none") {
       std::snprintf(ratio, sizeof(ratio), ", %s %.2fx smaller", compression.c_str(),
                     recorder["compression_ratio"].get<double>());
+    }
+    unsigned long long thinned = 0;
+    const nlohmann::json thinned_by_topic = recorder.value("thinned", nlohmann::json::object());
+    for (const auto& [topic, n] : thinned_by_topic.items()) {
+      thinned += n.get<unsigned long long>();
+    }
+    if (thinned > 0) {
+      std::snprintf(ratio + std::strlen(ratio), sizeof(ratio) - std::strlen(ratio),
+                    ", %llu thinned by max_rate_hz", thinned);
     }
     std::printf("  %s/run.bag                  %llu messages on %zu topics, %.1f MiB%s (iapsim info)\n",
                 result.run_dir.c_str(), recorder["messages"].get<unsigned long long>(),

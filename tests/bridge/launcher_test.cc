@@ -402,6 +402,35 @@ TEST_F(LauncherTest, ConfigurationErrorsNameTheFileLineAndKey) {
   EXPECT_NE(missing.message.find("processes.replayer.params.bag"), std::string::npos) << missing.message;
 }
 
+// recording.max_rate_hz keeps the first message of each window of 1/rate of sim time (what it leaves out is
+// counted as thinned, not lost); recording.groups name lists of prefixes for include, exclude and
+// max_rate_hz; a name that is neither is an error naming the key.
+TEST_F(LauncherTest, RecordingRatesAndGroupsThinAndSelectTopicsAndLoseNothing) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(2.0));
+  const LaunchResult result =
+      Run(scenario, "rates",
+          {"recording.groups={truth: [/iap/state, /clock], sensors: [/iap/uwb]}",
+           "recording.include=[truth, sensors]", "recording.max_rate_hz={truth: 100, /clock: 10}"});
+  ASSERT_EQ(result.exit_code, 0) << result.message;
+  std::map<std::string, uint64_t> in_bag = CountsInBag(result);
+  EXPECT_EQ(in_bag.size(), 3u);           // /iap/cmd is in no group
+  EXPECT_EQ(in_bag["/iap/state"], 201u);  // of 2001: t = 0, 10 ms, ..., 2 s
+  EXPECT_EQ(in_bag["/clock"], 21u);       // its own key is longer than the group's prefix
+  EXPECT_EQ(in_bag["/iap/uwb"], 401u);    // every message
+  BagReader(result.run_dir + "/run.bag").ForEach({"/iap/state"}, [](const BagMessage& m) {
+    EXPECT_LE(m.record_time_ns % 10'000'000, 1) << m.record_time_ns;  // t = 0 is 1 ns: a bag has no 0
+    return true;
+  });
+  const auto metrics = Metrics(result);
+  EXPECT_EQ(metrics["messages_lost"].get<uint64_t>(), 0u);
+  EXPECT_EQ(metrics["processes"]["recorder"]["process"]["thinned"]["/iap/state"].get<uint64_t>(), 1800u);
+  EXPECT_EQ(metrics["processes"]["recorder"]["process"]["thinned"]["/clock"].get<uint64_t>(), 1980u);
+  const LaunchResult typo = Run(scenario, "typo", {"recording.include=[truht]"});
+  EXPECT_EQ(typo.exit_code, 2) << typo.message;
+  EXPECT_NE(typo.message.find("recording.include: 'truht' is neither a topic prefix"), std::string::npos)
+      << typo.message;
+}
+
 // A producer that leaves header.stamp at 0 (ROS: not set): its messages are recorded at the step that
 // published them, not all at the bag's first instant, and replayed at those times.
 TEST_F(LauncherTest, AMessageStampedZeroIsRecordedAndReplayedAtItsStep) {
