@@ -31,7 +31,8 @@ void AddOrigin(tinyxml2::XMLElement* parent, const Eigen::Vector3d& xyz, const E
   origin->SetAttribute("rpy", Vec(rpy).c_str());
 }
 
-void AddGeometry(tinyxml2::XMLElement* parent, const Shape& shape) {
+// cone_as_cylinder: for tools that know no <cone> (GenerateRosUrdf)
+void AddGeometry(tinyxml2::XMLElement* parent, const Shape& shape, bool cone_as_cylinder = false) {
   auto* geometry = parent->InsertNewChildElement("geometry");
   switch (shape.kind) {
     case Shape::Kind::kBox:
@@ -39,7 +40,8 @@ void AddGeometry(tinyxml2::XMLElement* parent, const Shape& shape) {
       break;
     case Shape::Kind::kCylinder:
     case Shape::Kind::kCone: {
-      auto* solid = geometry->InsertNewChildElement(shape.kind == Shape::Kind::kCone ? "cone" : "cylinder");
+      const bool cone = shape.kind == Shape::Kind::kCone && !cone_as_cylinder;
+      auto* solid = geometry->InsertNewChildElement(cone ? "cone" : "cylinder");
       solid->SetAttribute("radius", Num(shape.radius_m).c_str());
       solid->SetAttribute("length", Num(shape.length_m).c_str());
       break;
@@ -56,25 +58,31 @@ void AddGeometry(tinyxml2::XMLElement* parent, const Shape& shape) {
   }
 }
 
-void AddLink(tinyxml2::XMLElement* robot, const std::string& name, const MassProperties& mass,
-             const std::vector<Shape>& shapes, const std::string& mesh) {
+// A link with its mass properties (none: massless), its collision shapes and its mesh as its visual (with
+// `material`, when given); cone_as_cylinder for tools that know no <cone> (GenerateRosUrdf).
+tinyxml2::XMLElement* AddLink(tinyxml2::XMLElement* robot, const std::string& name,
+                              const MassProperties* mass, const std::vector<Shape>& shapes,
+                              const std::string& mesh, bool cone_as_cylinder = false,
+                              const char* material = nullptr) {
   auto* link = robot->InsertNewChildElement("link");
   link->SetAttribute("name", name.c_str());
-  auto* inertial = link->InsertNewChildElement("inertial");
-  AddOrigin(inertial, mass.com_B_m, Eigen::Vector3d::Zero());
-  inertial->InsertNewChildElement("mass")->SetAttribute("value", Num(mass.mass_kg).c_str());
-  auto* inertia = inertial->InsertNewChildElement("inertia");
-  const Eigen::Matrix3d& I = mass.inertia_B_kgm2;
-  inertia->SetAttribute("ixx", Num(I(0, 0)).c_str());
-  inertia->SetAttribute("ixy", Num(I(0, 1)).c_str());
-  inertia->SetAttribute("ixz", Num(I(0, 2)).c_str());
-  inertia->SetAttribute("iyy", Num(I(1, 1)).c_str());
-  inertia->SetAttribute("iyz", Num(I(1, 2)).c_str());
-  inertia->SetAttribute("izz", Num(I(2, 2)).c_str());
+  if (mass) {
+    auto* inertial = link->InsertNewChildElement("inertial");
+    AddOrigin(inertial, mass->com_B_m, Eigen::Vector3d::Zero());
+    inertial->InsertNewChildElement("mass")->SetAttribute("value", Num(mass->mass_kg).c_str());
+    auto* inertia = inertial->InsertNewChildElement("inertia");
+    const Eigen::Matrix3d& I = mass->inertia_B_kgm2;
+    inertia->SetAttribute("ixx", Num(I(0, 0)).c_str());
+    inertia->SetAttribute("ixy", Num(I(0, 1)).c_str());
+    inertia->SetAttribute("ixz", Num(I(0, 2)).c_str());
+    inertia->SetAttribute("iyy", Num(I(1, 1)).c_str());
+    inertia->SetAttribute("iyz", Num(I(1, 2)).c_str());
+    inertia->SetAttribute("izz", Num(I(2, 2)).c_str());
+  }
   for (const auto& shape : shapes) {
     auto* collision = link->InsertNewChildElement("collision");
     AddOrigin(collision, shape.origin_B_m, shape.rpy_B_rad);
-    AddGeometry(collision, shape);
+    AddGeometry(collision, shape, cone_as_cylinder);
   }
   if (!mesh.empty()) {
     auto* visual = link->InsertNewChildElement("visual");
@@ -82,7 +90,9 @@ void AddLink(tinyxml2::XMLElement* robot, const std::string& name, const MassPro
     visual->InsertNewChildElement("geometry")
         ->InsertNewChildElement("mesh")
         ->SetAttribute("filename", mesh.c_str());
+    if (material) visual->InsertNewChildElement("material")->SetAttribute("name", material);
   }
+  return link;
 }
 
 tinyxml2::XMLElement* AddJoint(tinyxml2::XMLElement* robot, const std::string& name, const char* type,
@@ -212,7 +222,135 @@ LinkDescription ConvertLink(const urdf::Link& link, const ConeSet& cones, const 
   return out;
 }
 
+// --- GenerateRosUrdf's visuals: drawing sizes, not physics ---
+constexpr double kArmRadius_m = 0.008;
+constexpr double kPropellerThickness_m = 0.004;
+constexpr double kSubAircraftHub_m[3] = {0.12, 0.12, 0.05};
+
+void AddVisualShape(tinyxml2::XMLElement* link, const Shape& shape, const char* material) {
+  auto* visual = link->InsertNewChildElement("visual");
+  AddOrigin(visual, shape.origin_B_m, shape.rpy_B_rad);
+  AddGeometry(visual, shape, /*cone_as_cylinder=*/true);
+  visual->InsertNewChildElement("material")->SetAttribute("name", material);
+}
+
+// A cylinder of `radius` from `from` to `to` (URDF's cylinder runs along z), for a visual.
+void AddRod(tinyxml2::XMLElement* link, const Eigen::Vector3d& from, const Eigen::Vector3d& to, double radius,
+            const char* material) {
+  const Eigen::Vector3d along = to - from;
+  const Eigen::Matrix3d R =
+      Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), along).toRotationMatrix();
+  const Eigen::Vector3d ypr = R.eulerAngles(2, 1, 0);  // R = Rz(yaw) Ry(pitch) Rx(roll): URDF's rpy
+  Shape rod;
+  rod.kind = Shape::Kind::kCylinder;
+  rod.radius_m = radius;
+  rod.length_m = along.norm();
+  rod.origin_B_m = 0.5 * (from + to);
+  rod.rpy_B_rad = Eigen::Vector3d(ypr.z(), ypr.y(), ypr.x());
+  AddVisualShape(link, rod, material);
+}
+
+// A link for display: AddLink's, and where it has no mesh, its shapes as its visuals (with a material).
+tinyxml2::XMLElement* AddRosLink(tinyxml2::XMLElement* robot, const std::string& name,
+                                 const MassProperties* mass, const std::vector<Shape>& shapes,
+                                 const std::string& mesh, const char* material) {
+  auto* link = AddLink(robot, name, mass, shapes, mesh, /*cone_as_cylinder=*/true, material);
+  if (mesh.empty() && material) {
+    for (const auto& shape : shapes) AddVisualShape(link, shape, material);
+  }
+  return link;
+}
+
 }  // namespace
+
+std::string GenerateRosUrdf(const Vehicle& vehicle) {
+  tinyxml2::XMLDocument doc;
+  doc.InsertEndChild(doc.NewDeclaration());
+  doc.InsertEndChild(
+      doc.NewComment((" generated by `iapsim urdf --ros " + vehicle.source_file +
+                      "`: for ROS tools (display), not for simulation; each spherical joint is "
+                      "roll, pitch and yaw joints through massless links ")
+                         .c_str()));
+  auto* robot = doc.NewElement("robot");
+  doc.InsertEndChild(robot);
+  robot->SetAttribute("name", vehicle.name.c_str());
+  for (const auto& [name, rgba] :
+       {std::pair{"platform", "0.55 0.57 0.6 1"}, std::pair{"frame", "0.15 0.15 0.17 1"},
+        std::pair{"propeller", "0.2 0.5 0.9 0.5"}, std::pair{"tool", "0.85 0.6 0.2 1"}}) {
+    auto* material = robot->InsertNewChildElement("material");
+    material->SetAttribute("name", name);
+    material->InsertNewChildElement("color")->SetAttribute("rgba", rgba);
+  }
+  AddRosLink(robot, "base_link", nullptr, {}, "", nullptr);
+  AddRosLink(robot, "platform", &vehicle.platform, vehicle.platform_collision, vehicle.platform_mesh,
+             "platform");
+  AddJoint(robot, "base_link_platform", "fixed", "base_link", "platform", Eigen::Vector3d::Zero(),
+           Eigen::Vector3d::Zero());
+  for (const auto& tool : vehicle.tools) {
+    AddRosLink(robot, tool.name, &tool.mass, tool.collision, tool.mesh, "tool");
+    AddJoint(robot, tool.name + "_mount", "fixed", "platform", tool.name, tool.origin_P_m, tool.rpy_P_rad);
+  }
+  for (const auto& sub : vehicle.sub_aircraft) {
+    // the span box of a quadrotor would hide it: drawn as a hub, its arms and its propeller discs instead
+    auto* link = AddRosLink(robot, sub.name, &sub.mass, sub.collision, sub.mesh, nullptr);
+    if (sub.mesh.empty()) {
+      Shape hub;
+      hub.kind = Shape::Kind::kBox;
+      hub.box_size_m = Eigen::Vector3d(kSubAircraftHub_m[0], kSubAircraftHub_m[1], kSubAircraftHub_m[2]);
+      AddVisualShape(link, hub, "frame");
+      for (const Eigen::Vector3d& hub_S_m : sub.rotors.hub_S_m) {
+        AddRod(link, Eigen::Vector3d::Zero(), hub_S_m, kArmRadius_m, "frame");
+        if (sub.rotors.radius_m <= 0.0) continue;
+        Shape disc;
+        disc.kind = Shape::Kind::kCylinder;
+        disc.radius_m = sub.rotors.radius_m;
+        disc.length_m = kPropellerThickness_m;
+        disc.origin_B_m = hub_S_m;
+        AddVisualShape(link, disc, "propeller");
+      }
+    }
+    const Eigen::Vector3d yaw(0.0, 0.0, sub.initial_yaw_rad);
+    if (sub.joint != JointType::kSpherical) {
+      AddJoint(robot, sub.name + "_joint", "fixed", "platform", sub.name, sub.joint_P_m, yaw);
+      continue;
+    }
+    const double tilt = sub.joint_resistance.max_tilt_rad;
+    struct Axis {
+      const char* name;
+      Eigen::Vector3d axis;
+      bool limited;
+    };
+    const Axis axes[3] = {{"roll", Eigen::Vector3d::UnitX(), tilt > 0.0},
+                          {"pitch", Eigen::Vector3d::UnitY(), tilt > 0.0},
+                          {"yaw", Eigen::Vector3d::UnitZ(), false}};
+    std::string parent = "platform";
+    for (int a = 0; a < 3; ++a) {
+      const std::string child = a == 2 ? sub.name : sub.name + "_" + axes[a].name + "_link";
+      if (a < 2) AddRosLink(robot, child, nullptr, {}, "", nullptr);
+      auto* joint = AddJoint(
+          robot, sub.name + "_" + axes[a].name, axes[a].limited ? "revolute" : "continuous", parent, child,
+          a == 0 ? sub.joint_P_m : Eigen::Vector3d::Zero(), a == 0 ? yaw : Eigen::Vector3d::Zero());
+      joint->InsertNewChildElement("axis")->SetAttribute("xyz", Vec(axes[a].axis).c_str());
+      if (axes[a].limited) {  // a passive joint: no effort, no velocity of its own
+        auto* limit = joint->InsertNewChildElement("limit");
+        limit->SetAttribute("lower", Num(-tilt).c_str());
+        limit->SetAttribute("upper", Num(tilt).c_str());
+        limit->SetAttribute("effort", "0");
+        limit->SetAttribute("velocity", "0");
+      }
+      const JointResistance& r = sub.joint_resistance;
+      if (r.viscous_Nms_per_rad > 0.0 || r.coulomb_Nm > 0.0) {
+        auto* dynamics = joint->InsertNewChildElement("dynamics");
+        dynamics->SetAttribute("damping", Num(r.viscous_Nms_per_rad).c_str());
+        dynamics->SetAttribute("friction", Num(r.coulomb_Nm).c_str());
+      }
+      parent = child;
+    }
+  }
+  tinyxml2::XMLPrinter printer;
+  doc.Print(&printer);
+  return printer.CStr();
+}
 
 std::string GenerateUrdf(const Vehicle& vehicle) {
   tinyxml2::XMLDocument doc;
@@ -223,13 +361,13 @@ std::string GenerateUrdf(const Vehicle& vehicle) {
   auto* robot = doc.NewElement("robot");
   doc.InsertEndChild(robot);
   robot->SetAttribute("name", vehicle.name.c_str());
-  AddLink(robot, "platform", vehicle.platform, vehicle.platform_collision, vehicle.platform_mesh);
+  AddLink(robot, "platform", &vehicle.platform, vehicle.platform_collision, vehicle.platform_mesh);
   for (const auto& tool : vehicle.tools) {
-    AddLink(robot, tool.name, tool.mass, tool.collision, tool.mesh);
+    AddLink(robot, tool.name, &tool.mass, tool.collision, tool.mesh);
     AddJoint(robot, tool.name + "_mount", "fixed", "platform", tool.name, tool.origin_P_m, tool.rpy_P_rad);
   }
   for (const auto& sub : vehicle.sub_aircraft) {
-    AddLink(robot, sub.name, sub.mass, sub.collision, sub.mesh);
+    AddLink(robot, sub.name, &sub.mass, sub.collision, sub.mesh);
     auto* joint =
         AddJoint(robot, sub.name + "_joint", sub.joint == JointType::kSpherical ? "spherical" : "fixed",
                  "platform", sub.name, sub.joint_P_m, Eigen::Vector3d(0.0, 0.0, sub.initial_yaw_rad));

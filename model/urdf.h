@@ -27,7 +27,18 @@
 
 namespace iapsim::model {
 
+/// The vehicle as iapsim's URDF (type="spherical", <cone>: what LoadUrdfFile reads back).
 std::string GenerateUrdf(const Vehicle& vehicle);
+
+/// The vehicle as URDF that standard ROS tools take (check_urdf, robot_state_publisher, rviz; `iapsim urdf
+/// --ros`), for display, not for simulation: a massless root `base_link` fixed to the platform (KDL takes no
+/// inertia at the root); each spherical joint as three joints through two massless links, roll about x, pitch
+/// about y, yaw about z of the joint frame (`SUB_roll`, `SUB_pitch`, `SUB_yaw`; R = Rx Ry Rz spans every
+/// attitude), each with the joint's damping and friction, roll and pitch limited to the cone's half angle
+/// where there is one (a square around the cone, the nearest URDF has), the others continuous; cones as
+/// cylinders of their size; and visuals for every link: its mesh, or its shapes, and for a sub-aircraft its
+/// arms and propeller discs from its rotor set.
+std::string GenerateRosUrdf(const Vehicle& vehicle);
 
 struct LinkDescription {
   std::string name;

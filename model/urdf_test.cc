@@ -2,9 +2,11 @@
 
 #include <gtest/gtest.h>
 #include <unistd.h>
+#include <urdf_parser/urdf_parser.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -51,6 +53,62 @@ TEST(Vehicle, EveryShippedConfigurationLoadsAndRoundTripsThroughUrdf) {
       EXPECT_EQ(joint.origin_parent_m, sub.joint_P_m);  // exact: numbers are written with 17 digits
       EXPECT_NEAR(std::remainder(joint.rpy_parent_rad.z() - sub.initial_yaw_rad, 2 * M_PI), 0.0, 1e-12);
       EXPECT_EQ(model.links[joint.child].mass.inertia_B_kgm2, sub.mass.inertia_B_kgm2);
+    }
+  }
+}
+
+// `iapsim urdf --ros`: every shipped vehicle's display URDF passes check_urdf (liburdfdom-tools), and
+// urdfdom reads it as a tree rooted at base_link with the whole mass, each spherical joint as roll (x), pitch
+// (y) and yaw (z) joints from the joint's place to the sub-aircraft, and a visual for every part.
+TEST(Urdf, TheRosFlavourOfEveryShippedVehiclePassesCheckUrdf) {
+  ASSERT_EQ(access("/usr/bin/check_urdf", X_OK), 0)
+      << "no check_urdf (liburdfdom-tools, tools/install-deps.sh)";
+  const test_support::TestFolder folder("urdf_ros");
+  for (const auto& entry : fs::directory_iterator(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles")) {
+    if (entry.path().extension() != ".yaml") continue;
+    SCOPED_TRACE(entry.path().string());
+    const Vehicle vehicle = LoadVehicle(entry.path().string());
+    const std::string xml = GenerateRosUrdf(vehicle);
+    const fs::path file = folder.path() / (vehicle.name + ".urdf"), log = folder.path() / "check_urdf.log";
+    std::ofstream(file) << xml;
+    EXPECT_EQ(std::system(("/usr/bin/check_urdf " + file.string() + " > " + log.string() + " 2>&1").c_str()),
+              0)
+        << std::ifstream(log).rdbuf();
+    const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(xml);
+    ASSERT_TRUE(model);
+    EXPECT_EQ(model->getRoot()->name, "base_link");
+    double total = 0.0;
+    std::vector<urdf::LinkSharedPtr> links;
+    model->getLinks(links);
+    for (const auto& link : links) total += link->inertial ? link->inertial->mass : 0.0;
+    EXPECT_NEAR(total, vehicle.TotalMass_kg(), 1e-12);
+    for (const SubAircraft& sub : vehicle.sub_aircraft) {
+      SCOPED_TRACE(sub.name);
+      const urdf::LinkConstSharedPtr link = model->getLink(sub.name);
+      ASSERT_TRUE(link);
+      EXPECT_FALSE(link->visual_array.empty());
+      if (sub.joint != JointType::kSpherical) continue;
+      // from the sub-aircraft up: yaw, pitch, roll, then the platform
+      urdf::LinkConstSharedPtr at = link;
+      for (const auto& [name, axis] :
+           {std::pair{"yaw", urdf::Vector3(0, 0, 1)}, std::pair{"pitch", urdf::Vector3(0, 1, 0)},
+            std::pair{"roll", urdf::Vector3(1, 0, 0)}}) {
+        const urdf::JointConstSharedPtr joint = at->parent_joint;
+        ASSERT_TRUE(joint);
+        EXPECT_EQ(joint->name, sub.name + "_" + name);
+        EXPECT_EQ(joint->type, sub.joint_resistance.max_tilt_rad > 0.0 && std::string(name) != "yaw"
+                                   ? urdf::Joint::REVOLUTE
+                                   : urdf::Joint::CONTINUOUS);
+        EXPECT_EQ(joint->axis.x, axis.x);
+        EXPECT_EQ(joint->axis.y, axis.y);
+        EXPECT_EQ(joint->axis.z, axis.z);
+        at = model->getLink(joint->parent_link_name);
+        ASSERT_TRUE(at);
+      }
+      EXPECT_EQ(at->name, "platform");
+      const urdf::Vector3& origin =
+          model->getJoint(sub.name + "_roll")->parent_to_joint_origin_transform.position;
+      EXPECT_EQ(Eigen::Vector3d(origin.x, origin.y, origin.z), sub.joint_P_m);
     }
   }
 }

@@ -393,7 +393,7 @@ int Echo(const LiveArgs& args) {
   return 0;
 }
 
-int Urdf(const std::string& vehicle_path, const std::string& output) {
+int Urdf(const std::string& vehicle_path, const std::string& output, bool ros) {
   model::Vehicle vehicle;
   try {
     vehicle = model::LoadVehicle(vehicle_path);
@@ -401,7 +401,7 @@ int Urdf(const std::string& vehicle_path, const std::string& output) {
     std::cerr << "iapsim: invalid vehicle: " << e.what() << std::endl;
     return 2;
   }
-  const std::string urdf = model::GenerateUrdf(vehicle);
+  const std::string urdf = ros ? model::GenerateRosUrdf(vehicle) : model::GenerateUrdf(vehicle);
   if (output.empty()) {
     std::cout << urdf;
     return 0;

@@ -93,7 +93,7 @@ int Topics(const LiveArgs& args);
 int Echo(const LiveArgs& args);
 
 /// Writes the URDF of a vehicle YAML to `output` (stdout when empty). Bad YAML: exit 2.
-int Urdf(const std::string& vehicle, const std::string& output);
+int Urdf(const std::string& vehicle, const std::string& output, bool ros);
 
 /// The benchmarks' percentile: the nearest-rank value at `fraction` (0.5 the median, 1 the largest); 0 when
 /// there is none.

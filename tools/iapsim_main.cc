@@ -222,11 +222,19 @@ int main(int argc, char** argv) {
   echo_cmd->add_option("-n,--count", echo.count, "stop after this many messages (default: until Ctrl-C)");
 
   std::string urdf_vehicle, urdf_output;
+  bool urdf_ros = false;
   auto* urdf_cmd =
       app.add_subcommand("urdf", "write the URDF of a vehicle description (configs/vehicles/*.yaml)");
-  urdf_cmd->footer("Examples:\n  iapsim urdf configs/vehicles/three_star.yaml -o three_star.urdf");
+  urdf_cmd->footer(
+      "Examples:\n  iapsim urdf configs/vehicles/three_star.yaml -o three_star.urdf\n"
+      "  iapsim urdf configs/vehicles/three_star.yaml --ros -o three_star_ros.urdf && check_urdf "
+      "three_star_ros.urdf");
   urdf_cmd->add_option("vehicle", urdf_vehicle, "vehicle YAML")->required()->check(CLI::ExistingFile);
   urdf_cmd->add_option("-o,--output", urdf_output, "output file (default: standard output)");
+  urdf_cmd->add_flag(
+      "--ros", urdf_ros,
+      "for ROS tools (check_urdf, robot_state_publisher, rviz): spherical joints as roll, pitch and "
+      "yaw joints, visuals for every part; not for simulation");
 
   BenchArgs bench;
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
@@ -278,7 +286,7 @@ int main(int argc, char** argv) {
     if (*video_cmd) return Video(video);
     if (*topics_cmd) return Topics(topics);
     if (*echo_cmd) return Echo(echo);
-    if (*urdf_cmd) return Urdf(urdf_vehicle, urdf_output);
+    if (*urdf_cmd) return Urdf(urdf_vehicle, urdf_output, urdf_ros);
     if (*bench_cmd) return Bench(bench);
   } catch (const std::exception& e) {
     std::cerr << "iapsim: " << e.what() << std::endl;

@@ -33,8 +33,9 @@ packages=(
   # `iapsim sweep --slurm` (sbatch, squeue, scancel), and the one-node cluster of tools/slurm_local_cluster.sh
   # its tests and benchmark bring up
   slurm-client slurmctld slurmd munge
-  # tests and benchmarks (MuJoCo: the reference beside iapsim in `iapsim bench physics`)
-  libgtest-dev libgmock-dev libbenchmark-dev libmujoco-dev
+  # tests and benchmarks (MuJoCo: the reference beside iapsim in `iapsim bench physics`; check_urdf for the
+  # URDF that `iapsim urdf --ros` writes)
+  libgtest-dev libgmock-dev libbenchmark-dev libmujoco-dev liburdfdom-tools
 )
 
 missing=()
