@@ -95,7 +95,8 @@ wait_code "$run"
 ended_s=$((($(date +%s%N) - killed_at) / 1000000000))
 [ "$code" -eq 1 ] || fail "vanished: exit $code: $(cat "$work/vanish.out")"
 grep -q "process 'sensors' (started elsewhere) is not responding" "$work/vanish.out" || fail "vanished: $(cat "$work/vanish.out")"
-[ "$ended_s" -le 5 ] || fail "the run took $ended_s s to end after the remote process vanished"
+# the contract of every death (README, Tests): over within 10 s (here hang_timeout_s, 2 s, then the stop)
+[ "$ended_s" -le 10 ] || fail "the run took $ended_s s to end after the remote process vanished"
 "$iapsim" info "$work/vanish/run.bag" > /dev/null || fail "vanished: the bag does not read"
 
 # the launcher vanishes: its local processes follow it (PR_SET_PDEATHSIG), the remote one stops once the
