@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# End-to-end test of the iapsim program as a user runs it: run, info, export, topics, echo, bench record, rl
-# collect and eval, bad configuration, SIGTERM of a running launcher (clean stop, no process left behind).
+# End-to-end test of the iapsim program as a user runs it: run (one process started by hand too), info, export,
+# topics, echo, bench record, rl collect, eval and train (two PPO workers), bad configuration, SIGTERM of a
+# running launcher (clean stop, no process left behind).
 # usage: cli_test.sh BUILD_BIN_DIR SOURCE_DIR
 set -euo pipefail
 # shellcheck source=tests/support/script.sh
@@ -36,6 +37,18 @@ for f in scenario.resolved.yaml run.bag metrics.json log.txt logs/physics.log; d
   [ -s "$work/run/$f" ] || fail "run directory lacks $f"
 done
 grep -q "seed: 3" "$work/run/scenario.resolved.yaml" || fail "--seed not in the resolved scenario"
+
+# one process started by hand (host: external, as under a debugger) on the default shared-memory bus: the
+# launcher prints its command and waits for it, and the run records the same bag
+"$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --duration 1 --seed 3 --set processes.control.host=external \
+  --out "$work/by_hand" > "$work/by_hand.out" 2>&1 &
+run=$!
+for _ in $(seq 200); do [ -x "$work/by_hand/external/control.sh" ] && break; sleep 0.05; done
+"$work/by_hand/external/control.sh" > "$work/by_hand_control.log" 2>&1 || fail "control by hand: $(cat "$work/by_hand_control.log")"
+wait_code $run
+[ "$code" -eq 0 ] || fail "a run with a process started by hand exited $code: $(cat "$work/by_hand.out")"
+grep -q "waiting up to 600 s for 'control', started elsewhere:" "$work/by_hand.out" || fail "no command: $(cat "$work/by_hand.out")"
+cmp "$work/run/run.bag" "$work/by_hand/run.bag" || fail "the bag with control started by hand differs"
 
 "$iapsim" info "$work/run/run.bag" > "$work/info.out"
 grep -Eq "^/iap/state +iapsim_msgs/IapState +1001 +1000.00" "$work/info.out" || fail "info: $(cat "$work/info.out")"
