@@ -108,15 +108,15 @@ struct ControlServer::Impl {
 };
 
 ControlServer::ControlServer(const std::string& endpoint, const std::string& secret,
-                             const std::vector<std::string>& processes)
-    : impl_(std::make_unique<Impl>(
-          secret, processes,
-          Encrypted(endpoint) ? std::optional(internal::RunCurveKeys(secret)) : std::nullopt)) {
+                             const std::vector<std::string>& processes) {
+  const std::optional<internal::CurveKeys> curve_keys =
+      Encrypted(endpoint) ? std::optional(internal::RunCurveKeys(secret)) : std::nullopt;
+  impl_ = std::make_unique<Impl>(secret, processes, curve_keys);
   impl_->socket.set(zmq::sockopt::linger, 0);
   impl_->socket.set(zmq::sockopt::router_mandatory, 0);  // a process that already exited is not an error
-  if (Encrypted(endpoint)) {
+  if (curve_keys) {
     impl_->socket.set(zmq::sockopt::curve_server, 1);
-    impl_->socket.set(zmq::sockopt::curve_secretkey, internal::RunCurveKeys(secret).server_secret);
+    impl_->socket.set(zmq::sockopt::curve_secretkey, curve_keys->server_secret);
   } else {
     impl_->socket.set(zmq::sockopt::plain_server, 1);
   }

@@ -632,10 +632,20 @@ std::vector<std::string> SrunCommand(const std::string& srun_path, const Process
 // scenario.resolved.yaml (and every file it names, at the same paths) and IAPSIM_RUN_SECRET set.
 std::string ExternalCommand(const std::string& exec, const std::string& resolved_path,
                             const std::string& node, const std::string& run_dir) {
+  // a path as one shell word, whatever it holds (spaces, quotes)
+  const auto quoted = [](const fs::path& path) {
+    const std::string text = fs::absolute(path).lexically_normal().string();
+    if (text.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789/._-+") ==
+        std::string::npos) {
+      return text;
+    }
+    std::string word = "'";
+    for (const char c : text) word += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return word + "'";
+  };
   const fs::path run = fs::absolute(run_dir).lexically_normal();
-  const std::string command = fs::absolute(exec).lexically_normal().string() + " --scenario " +
-                              fs::absolute(resolved_path).lexically_normal().string() + " --node " + node +
-                              " --run-dir " + run.string();
+  const std::string command =
+      quoted(exec) + " --scenario " + quoted(resolved_path) + " --node " + node + " --run-dir " + quoted(run);
   fs::create_directories(run / "external");
   const fs::path script = run / "external" / (node + ".sh");
   std::ofstream(script) << "#!/bin/sh\n# starts '" << node << "' of the run in " << run.string()

@@ -111,12 +111,17 @@ tinyxml2::XMLElement* AddJoint(tinyxml2::XMLElement* robot, const std::string& n
   throw std::invalid_argument(source + ": " + what);
 }
 
-void AddResistance(tinyxml2::XMLElement* joint, const JointResistance& resistance) {
+// A joint's friction as URDF's <dynamics damping friction>, where it has any.
+void AddDynamics(tinyxml2::XMLElement* joint, const JointResistance& resistance) {
   if (resistance.viscous_Nms_per_rad > 0.0 || resistance.coulomb_Nm > 0.0) {
     auto* dynamics = joint->InsertNewChildElement("dynamics");
     dynamics->SetAttribute("damping", resistance.viscous_Nms_per_rad);
     dynamics->SetAttribute("friction", resistance.coulomb_Nm);
   }
+}
+
+void AddResistance(tinyxml2::XMLElement* joint, const JointResistance& resistance) {
+  AddDynamics(joint, resistance);
   if (resistance.max_tilt_rad > 0.0)
     joint->InsertNewChildElement("limit")->SetAttribute("upper", resistance.max_tilt_rad);
 }
@@ -338,12 +343,7 @@ std::string GenerateRosUrdf(const Vehicle& vehicle) {
         limit->SetAttribute("effort", "0");
         limit->SetAttribute("velocity", "0");
       }
-      const JointResistance& r = sub.joint_resistance;
-      if (r.viscous_Nms_per_rad > 0.0 || r.coulomb_Nm > 0.0) {
-        auto* dynamics = joint->InsertNewChildElement("dynamics");
-        dynamics->SetAttribute("damping", Num(r.viscous_Nms_per_rad).c_str());
-        dynamics->SetAttribute("friction", Num(r.coulomb_Nm).c_str());
-      }
+      AddDynamics(joint, sub.joint_resistance);
       parent = child;
     }
   }

@@ -57,17 +57,31 @@ TEST(Vehicle, EveryShippedConfigurationLoadsAndRoundTripsThroughUrdf) {
   }
 }
 
-// `iapsim urdf --ros`: every shipped vehicle's display URDF passes check_urdf (liburdfdom-tools), and
-// urdfdom reads it as a tree rooted at base_link with the whole mass, each spherical joint as roll (x), pitch
-// (y) and yaw (z) joints from the joint's place to the sub-aircraft, and a visual for every part.
+// `iapsim urdf --ros`: every shipped vehicle's display URDF, and that of one whose joints have friction and
+// a cone limit, passes check_urdf (liburdfdom-tools), and urdfdom reads it as a tree rooted at base_link with
+// the whole mass, each spherical joint as roll (x), pitch (y) and yaw (z) joints from the joint's place to
+// the sub-aircraft (roll and pitch limited to the cone, each with the joint's friction), and a visual for
+// every part.
 TEST(Urdf, TheRosFlavourOfEveryShippedVehiclePassesCheckUrdf) {
   ASSERT_EQ(access("/usr/bin/check_urdf", X_OK), 0)
       << "no check_urdf (liburdfdom-tools, tools/install-deps.sh)";
   const test_support::TestFolder folder("urdf_ros");
+  std::vector<std::string> vehicles;
   for (const auto& entry : fs::directory_iterator(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles")) {
-    if (entry.path().extension() != ".yaml") continue;
-    SCOPED_TRACE(entry.path().string());
-    const Vehicle vehicle = LoadVehicle(entry.path().string());
+    if (entry.path().extension() == ".yaml") vehicles.push_back(entry.path().string());
+  }
+  vehicles.push_back(
+      WriteTemp("resisting",
+                "name: resisting\n"
+                "platform: {mass_kg: 2.0, inertia_kgm2: [0.05, 0.05, 0.1]}\n"
+                "sub_aircraft_defaults: {base: " +
+                    F450() +
+                    ", joint_friction: {viscous_Nms_per_rad: 0.02, coulomb_Nm: 0.01}, "
+                    "joint_max_tilt_deg: 30}\n"
+                    "sub_aircraft:\n  - {joint_m: [0.5, 0, 0]}\n  - {joint_m: [-0.5, 0, 0]}\n"));
+  for (const std::string& path : vehicles) {
+    SCOPED_TRACE(path);
+    const Vehicle vehicle = LoadVehicle(path);
     const std::string xml = GenerateRosUrdf(vehicle);
     const fs::path file = folder.path() / (vehicle.name + ".urdf"), log = folder.path() / "check_urdf.log";
     std::ofstream(file) << xml;
@@ -102,6 +116,15 @@ TEST(Urdf, TheRosFlavourOfEveryShippedVehiclePassesCheckUrdf) {
         EXPECT_EQ(joint->axis.x, axis.x);
         EXPECT_EQ(joint->axis.y, axis.y);
         EXPECT_EQ(joint->axis.z, axis.z);
+        if (joint->type == urdf::Joint::REVOLUTE) {
+          EXPECT_DOUBLE_EQ(joint->limits->upper, sub.joint_resistance.max_tilt_rad);
+          EXPECT_DOUBLE_EQ(joint->limits->lower, -sub.joint_resistance.max_tilt_rad);
+        }
+        if (sub.joint_resistance.viscous_Nms_per_rad > 0.0) {
+          ASSERT_TRUE(joint->dynamics);
+          EXPECT_DOUBLE_EQ(joint->dynamics->damping, sub.joint_resistance.viscous_Nms_per_rad);
+          EXPECT_DOUBLE_EQ(joint->dynamics->friction, sub.joint_resistance.coulomb_Nm);
+        }
         at = model->getLink(joint->parent_link_name);
         ASSERT_TRUE(at);
       }

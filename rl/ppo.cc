@@ -170,9 +170,10 @@ Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::stri
       store->setTimeout(timeout);
       auto options = c10d::ProcessGroupGloo::Options::create();
       options->timeout = timeout;
-      options->devices.push_back(workers.address.empty()
-                                     ? c10d::ProcessGroupGloo::createDefaultDevice()
-                                     : c10d::ProcessGroupGloo::createDeviceForHostname(workers.address));
+      options->devices.push_back(
+          !workers.interface.empty() ? c10d::ProcessGroupGloo::createDeviceForInterface(workers.interface)
+          : !workers.address.empty() ? c10d::ProcessGroupGloo::createDeviceForHostname(workers.address)
+                                     : c10d::ProcessGroupGloo::createDefaultDevice());
       impl.group = c10::make_intrusive<c10d::ProcessGroupGloo>(store, workers.rank, workers.world, options);
     } catch (const std::exception& error) {  // c10::Error: a rank that never came, an address not here
       const std::string what = error.what();
@@ -280,7 +281,9 @@ PpoStats Ppo::Update(const Rollout& rollout) {
   const int64_t local = rollout.observations.size(0);
   const int64_t total = local * world;  // rank r's rows are [r local, (r + 1) local) of the global rollout
   if (world > 1) {
-    torch::Tensor sizes = torch::tensor({static_cast<double>(local), static_cast<double>(local * local)});
+    // float64: exact for any rollout (torch::tensor of doubles would be float32, which n² may not fit)
+    torch::Tensor sizes =
+        torch::tensor({static_cast<double>(local), static_cast<double>(local * local)}, torch::kFloat64);
     impl.SumAcrossRanks(sizes);  // Σn = W n and Σn² = W n² only if every rank has n rows
     if (sizes[0].item<double>() != static_cast<double>(total) ||
         sizes[1].item<double>() != static_cast<double>(total * local)) {
@@ -390,7 +393,8 @@ PpoStats Ppo::Update(const Rollout& rollout) {
                .to(torch::kFloat64);
     sums = torch::cat(
         {sums, torch::tensor({static_cast<double>(rollout.episodes), static_cast<double>(rollout.successes),
-                              rollout.return_sum, rollout.docked_step_sum})});
+                              rollout.return_sum, rollout.docked_step_sum},
+                             torch::kFloat64)});
     impl.SumAcrossRanks(sums);
     stats.std_mean = impl.log_std.exp().mean().item<double>();
   }

@@ -80,8 +80,9 @@ struct PpoWorkers {
   int world = 1;
   // world > 1: the rendezvous, a file every rank can reach (c10d's FileStore), new for each training
   std::string rendezvous_file;
-  // the address this rank's Gloo connections bind, which the others reach ("": the one this host's name
-  // resolves to)
+  // what this rank's Gloo connections bind, which the others reach: the address of `interface` (a network
+  // interface, e.g. eth0), else `address`, else the one this host's name resolves to
+  std::string interface;
   std::string address;
   double timeout_s = 300.0;  // for the other ranks to join, and for any collective step
 };

@@ -39,16 +39,19 @@ done
 grep -q "seed: 3" "$work/run/scenario.resolved.yaml" || fail "--seed not in the resolved scenario"
 
 # one process started by hand (host: external, as under a debugger) on the default shared-memory bus: the
-# launcher prints its command and waits for it, and the run records the same bag
+# launcher prints its command (the run folder's path quoted: it has a space) and waits for it, and the run
+# records the same bag
 "$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --duration 1 --seed 3 --set processes.control.host=external \
-  --out "$work/by_hand" > "$work/by_hand.out" 2>&1 &
+  --out "$work/by hand" > "$work/by_hand.out" 2>&1 &
 run=$!
-for _ in $(seq 200); do [ -x "$work/by_hand/external/control.sh" ] && break; sleep 0.05; done
-"$work/by_hand/external/control.sh" > "$work/by_hand_control.log" 2>&1 || fail "control by hand: $(cat "$work/by_hand_control.log")"
+for _ in $(seq 200); do [ -x "$work/by hand/external/control.sh" ] && break; sleep 0.05; done
+"$work/by hand/external/control.sh" > "$work/by_hand_control.log" 2>&1 || fail "control by hand: $(cat "$work/by_hand_control.log")"
 wait_code $run
 [ "$code" -eq 0 ] || fail "a run with a process started by hand exited $code: $(cat "$work/by_hand.out")"
 grep -q "waiting up to 600 s for 'control', started elsewhere:" "$work/by_hand.out" || fail "no command: $(cat "$work/by_hand.out")"
-cmp "$work/run/run.bag" "$work/by_hand/run.bag" || fail "the bag with control started by hand differs"
+grep -qF -- "--scenario '$work/by hand/scenario.resolved.yaml' --node control" "$work/by_hand.out" ||
+  fail "the command does not quote the run folder: $(cat "$work/by_hand.out")"
+cmp "$work/run/run.bag" "$work/by hand/run.bag" || fail "the bag with control started by hand differs"
 
 "$iapsim" info "$work/run/run.bag" > "$work/info.out"
 grep -Eq "^/iap/state +iapsim_msgs/IapState +1001 +1000.00" "$work/info.out" || fail "info: $(cat "$work/info.out")"

@@ -116,8 +116,9 @@ rl=(--task "$src/configs/rl/docking.yaml" --set termination.max_steps=200 --expe
 rl+=(--ppo-iterations 2)
 "$iapsim" rl train "$work/rl_local" "${rl[@]}" --stage ppo --ppo-init "$work/rl/td3bc/policy.pt" --ppo-workers 2 \
   > "$work/rl_local.out" || fail "2 local workers: $(cat "$work/rl_local.out")"
-srun --ntasks=2 --quiet "$iapsim" rl train "$work/rl_srun" "${rl[@]}" --stage ppo --ppo-init "$work/rl/td3bc/policy.pt" \
-  --ppo-workers 2 > "$work/rl_srun.out" 2>&1 || fail "srun: $(cat "$work/rl_srun.out")"
+# (Gloo on the interface GLOO_SOCKET_IFNAME names, as PyTorch's workers)
+GLOO_SOCKET_IFNAME=lo srun --ntasks=2 --quiet "$iapsim" rl train "$work/rl_srun" "${rl[@]}" --stage ppo \
+  --ppo-init "$work/rl/td3bc/policy.pt" --ppo-workers 2 > "$work/rl_srun.out" 2>&1 || fail "srun: $(cat "$work/rl_srun.out")"
 [ "$(grep -c "ppo: from" "$work/rl_srun.out")" -eq 1 ] || fail "srun: not one first worker: $(cat "$work/rl_srun.out")"
 cmp <(cut -d, -f1-16 "$work/rl_local/ppo/log.csv") <(cut -d, -f1-16 "$work/rl_srun/ppo/log.csv") ||
   fail "srun's workers differ from local ones: $(cat "$work/rl_local/ppo/log.csv" "$work/rl_srun/ppo/log.csv")"

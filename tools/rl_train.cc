@@ -222,11 +222,15 @@ rl::PpoWorkers PpoWorkersOf(const RlTrainArgs& args, const fs::path& dir, bool* 
       throw std::invalid_argument("--ppo-workers " + std::to_string(args.ppo_workers) + ": srun started " +
                                   step_tasks + " tasks; give it as many as workers");
     }
+    const char* job = std::getenv("SLURM_JOB_ID");
+    const char* step = std::getenv("SLURM_STEP_ID");
+    if (!job || !step) {
+      throw std::invalid_argument(
+          "--ppo-workers under srun: SLURM_JOB_ID and SLURM_STEP_ID are not both set");
+    }
     workers.rank = std::atoi(rank);
-    workers.rendezvous_file = (dir / ("rendezvous-" + std::string(std::getenv("SLURM_JOB_ID")) + "." +
-                                      std::getenv("SLURM_STEP_ID")))
-                                  .string();
-    if (const char* interface = std::getenv("GLOO_SOCKET_IFNAME")) workers.address = interface;
+    workers.rendezvous_file = (dir / ("rendezvous-" + std::string(job) + "." + step)).string();
+    if (const char* interface = std::getenv("GLOO_SOCKET_IFNAME")) workers.interface = interface;
     return workers;
   }
   workers.address = "127.0.0.1";
