@@ -542,6 +542,10 @@ void Bus::SubscribeRaw(const std::string& prefix, RawCallback callback) {
   AddSubscription(prefix, /*exact=*/false, nullptr, std::move(callback));
 }
 
+void Bus::SubscribeSerialized(const std::string& topic, const TypeInfo& type, RawCallback callback) {
+  AddSubscription(topic, /*exact=*/true, &type, std::move(callback));
+}
+
 int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
   auto& impl = *impl_;
   impl.Maintain(/*now=*/false);

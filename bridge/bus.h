@@ -158,6 +158,10 @@ class Bus {
   /// Every message whose topic starts with `prefix` ("" for all), of any type, undecoded.
   void SubscribeRaw(const std::string& prefix, RawCallback callback);
 
+  /// Every message on `topic` (that name exactly), undecoded; one of another type or md5 than `type` (which
+  /// must outlive the bus) makes Spin throw, as with Subscribe.
+  void SubscribeSerialized(const std::string& topic, const TypeInfo& type, RawCallback callback);
+
   /// Until the next call, these peers (node names) get none of this node's messages over shared memory,
   /// whatever they subscribed to: the lockstep clock owner mutes, for a step, the processes not due at it.
   /// ZeroMQ connections are not muted.

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 #include <iapsim_msgs/IapState.h>
+#include <std_msgs/Header.h>
 #include <std_msgs/String.h>
 #include <unistd.h>
 
@@ -104,6 +105,38 @@ TEST_P(BusOn, ExactTopicDoesNotMatchLongerTopic) {
   while (prefixed < 2 && std::chrono::steady_clock::now() < deadline) b.Spin(milliseconds(10));
   EXPECT_EQ(exact, 1);
   EXPECT_EQ(prefixed, 2);
+}
+
+// the ROS bridge's subscription: one topic's serialised bytes, exactly as published, and its type checked
+TEST_P(BusOn, ASerializedSubscriptionGetsThePublishedBytesOfOneTopicAndChecksTheType) {
+  Bus a(Options("a", {"b"}));
+  Bus b(Options("b", {"a"}));
+  std::vector<std::vector<uint8_t>> received;
+  b.SubscribeSerialized("/x", TypeInfoOf<std_msgs::String>(),
+                        [&](const uint8_t* data, size_t size, const MessageInfo& info) {
+                          EXPECT_EQ(info.datatype, "std_msgs/String");
+                          received.emplace_back(data, data + size);
+                        });
+  Handshake(a, b);
+  std_msgs::String text;
+  text.data = "forwarded as is";
+  a.Publish("/x", text);
+  a.Publish("/xy", text);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (received.empty() && std::chrono::steady_clock::now() < deadline) b.Spin(milliseconds(10));
+  ASSERT_EQ(received.size(), 1u);
+  std::vector<uint8_t> expected;
+  EncodeInto(text, &expected);
+  EXPECT_EQ(received[0], expected);
+
+  std_msgs::Header wrong;
+  a.Publish("/x", wrong);
+  EXPECT_THROW(
+      {
+        const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+        while (std::chrono::steady_clock::now() < until) b.Spin(milliseconds(10));
+      },
+      BusError);
 }
 
 TEST_P(BusOn, NumbersEachPublisherAndTopicPairInOrderOfFirstMessage) {

@@ -341,7 +341,11 @@ class Runtime {
   }
 
   void RunParticipant() {
-    while (!finished_ && !StopRequested()) bus_.Spin(milliseconds(5));
+    const auto period = std::min<std::chrono::microseconds>(milliseconds(5), process_.poll_period());
+    while (!finished_ && !StopRequested()) {
+      bus_.Spin(period);
+      process_.Poll();
+    }
     while (!StopRequested(/*poll_now=*/true)) bus_.Spin(milliseconds(5));
   }
 

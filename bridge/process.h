@@ -12,6 +12,7 @@
 // acknowledges only every L/4 steps and the last step, and the clock owner waits for its ack of k - L (not
 // k) before it publishes k + 1, and for its ack of the last step before the run ends.
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -47,6 +48,10 @@ class Process {
   virtual void Step(const StepInfo& step) = 0;
   /// Act on step k only once every other due process acknowledged it (recorders).
   virtual bool StepsAfterPeers() const { return false; }
+  /// A participant with inputs from outside the bus (the ROS bridge): called between bus reads, at least
+  /// every poll_period, whether the process is due or not.
+  virtual void Poll() {}
+  virtual std::chrono::microseconds poll_period() const { return std::chrono::milliseconds(5); }
   /// The run is over (normally or not): flush outputs, add figures to the run's metrics.
   virtual void Finish(nlohmann::json* report) { (void)report; }
 };

@@ -432,6 +432,8 @@ int Bench(const BenchArgs& args) {
   if (args.what == "rl" || all) status |= BenchRl(args.task, &report);
   if (all) std::printf("\n");
   if (args.what == "sweep" || all) status |= BenchSweep(args.scenario, &report);
+  if (all) std::printf("\n");
+  if (args.what == "ros" || all) status |= BenchRos(&report);
   if (!args.json.empty()) {
     std::ofstream(args.json) << report.dump(2) << "\n";
     std::printf("figures written to %s\n", args.json.c_str());

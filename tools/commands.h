@@ -135,8 +135,13 @@ int BenchRl(const std::string& task_file, nlohmann::json* report);
 /// installed).
 int BenchSweep(const std::string& scenario, nlohmann::json* report);
 
+/// The ROS bridge's round trip with the example's external node
+/// (configs/scenarios/three_star_ros_square.yaml, ros_square_node), 60 s in realtime and in lockstep:
+/// answers, losses, p50/p99/max.
+int BenchRos(nlohmann::json* report);
+
 struct BenchArgs {
-  std::string what = "all";  // bus, physics, render, record, launch, fidelity, rl, sweep or all
+  std::string what = "all";  // bus, physics, render, record, launch, fidelity, rl, sweep, ros or all
   std::string vehicle = "configs/vehicles/three_star.yaml";
   std::string scene = "configs/scenes/buildings.yaml";
   std::string scenario = "configs/regression/three_star_spiral.yaml";

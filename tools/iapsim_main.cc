@@ -240,9 +240,10 @@ int main(int argc, char** argv) {
   auto* bench_cmd = app.add_subcommand("bench", "measure performance and print a table (and JSON)");
   bench_cmd->footer("Examples:\n  iapsim bench physics\n  iapsim bench all --json bench.json");
   bench_cmd
-      ->add_option("what", bench.what, "bus, physics, render, record, launch, fidelity, rl, sweep or all")
-      ->check(
-          CLI::IsMember({"bus", "physics", "render", "record", "launch", "fidelity", "rl", "sweep", "all"}));
+      ->add_option("what", bench.what,
+                   "bus, physics, render, record, launch, fidelity, rl, sweep, ros or all")
+      ->check(CLI::IsMember(
+          {"bus", "physics", "render", "record", "launch", "fidelity", "rl", "sweep", "ros", "all"}));
   bench_cmd->add_option("--vehicle", bench.vehicle,
                         "physics, render, fidelity: the vehicle to measure (default the three-star)");
   bench_cmd->add_option("--scene", bench.scene, "render: the scene (default configs/scenes/buildings.yaml)");

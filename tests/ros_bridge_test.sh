@@ -1,0 +1,140 @@
+#!/usr/bin/env bash
+# The ROS bridge (issue 21) end to end, with ROS nodes that are not part of iapsim:
+# - realtime: the bridge's private roscore; ros_square_node (plain roscpp) reads the odometry, answers with
+#   setpoints and sees the IAP reach every corner of its square; a rospy node receives /clock and the
+#   odometry, whose bytes equal the bus's (as recorded in run.bag); every setpoint reaches the controller
+#   and the bridge reports the round trips;
+# - lockstep: the node answers every odometry (`answers`), so two runs give the same bag;
+# - bad configurations are refused naming the key, a dead roscore ends the run naming it, and no roscore
+#   outlives its run.
+# usage: ros_bridge_test.sh BUILD_BIN_DIR SOURCE_DIR
+set -euo pipefail
+# shellcheck source=tests/support/script.sh
+source "$(dirname "$0")/support/script.sh"
+scenario=$src/configs/scenarios/three_star_ros_square.yaml
+python=/usr/bin/python3  # Debian's, with rospy and rosbag
+pids=()
+cleanup() {
+  for pid in "${pids[@]}"; do kill -9 "$pid" 2> /dev/null || true; done
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+wait_for_master() {  # RUN_DIR: waits until the bridge has written its private master's URI
+  for _ in $(seq 1 300); do
+    [ -s "$1/ros/master_uri" ] && return 0
+    sleep 0.1
+  done
+  fail "no $1/ros/master_uri after 30 s: $(tail -5 "$1/log.txt" 2> /dev/null)"
+}
+square_node() {  # RUN_DIR LOG: the square node on that run's master, until odometry stops for 2 s
+  ROS_MASTER_URI=$(cat "$1/ros/master_uri") ROS_IP=127.0.0.1 ROS_HOME=$work/ros_home \
+    "$bin/ros_square_node" odom:=/iap/odom setpoint:=/iap/setpoint _hold_s:=0.5 _idle_exit_s:=2 > "$2" 2>&1
+}
+metric() {  # RUN_DIR PYTHON_EXPRESSION over the ros process's report `r`
+  $python -c "import json,sys; r=json.load(open('$1/metrics.json'))['processes']['ros']['process']; print($2)"
+}
+
+# --- realtime ---------------------------------------------------------------------------------------------
+run=$work/realtime
+"$iapsim" run "$scenario" --out "$run" --set duration_s=20 > "$work/realtime.log" 2>&1 &
+pids+=($!)
+launcher=$!
+wait_for_master "$run"
+cat > "$work/capture.py" << 'EOF'
+# the bytes of N messages of /iap/odom as a rospy node receives them, and whether /clock came
+import sys
+import rospy
+from rospy.msg import AnyMsg
+from rosgraph_msgs.msg import Clock
+out, wanted = open(sys.argv[1], "wb"), int(sys.argv[2])
+seen = {"odom": 0, "clock": 0}
+def on_odom(message):
+    if seen["odom"] < wanted:
+        out.write(len(message._buff).to_bytes(4, "little") + message._buff)
+    seen["odom"] += 1
+def on_clock(message):
+    seen["clock"] += 1
+rospy.init_node("capture", anonymous=True, disable_signals=True)
+rospy.Subscriber("/iap/odom", AnyMsg, on_odom, tcp_nodelay=True)
+rospy.Subscriber("/clock", Clock, on_clock)
+while seen["odom"] < wanted and not rospy.is_shutdown():
+    rospy.rostime.wallsleep(0.05)
+out.close()
+print("odom", seen["odom"], "clock", seen["clock"])
+EOF
+ROS_MASTER_URI=$(cat "$run/ros/master_uri") ROS_IP=127.0.0.1 ROS_HOME=$work/ros_home \
+  timeout 60 $python "$work/capture.py" "$work/odom.bin" 400 > "$work/capture.log" 2>&1 &
+pids+=($!)
+capture=$!
+square_node "$run" "$work/square.log" || fail "the square node did not fly its square: $(cat "$work/square.log")"
+grep -q "square done" "$work/square.log" || fail "no 'square done': $(cat "$work/square.log")"
+wait_code $launcher
+[ $code -eq 0 ] || fail "realtime run exited $code: $(tail -20 "$work/realtime.log")"
+wait_code $capture
+[ $code -eq 0 ] || fail "capture node exited $code: $(cat "$work/capture.log")"
+grep -qE "^odom [0-9]+ clock [1-9]" "$work/capture.log" || fail "no /clock in ROS: $(cat "$work/capture.log")"
+$python - "$work/odom.bin" "$run/run.bag" << 'EOF' || fail "bridged bytes differ from the bus's"
+# every odometry message a ROS node received is, byte for byte, one the bus carried (run.bag records it)
+import sys
+import rosbag
+recorded = {raw[1] for _, raw, _ in rosbag.Bag(sys.argv[2]).read_messages(topics=["/three_star/odom"], raw=True)}
+data, received = open(sys.argv[1], "rb").read(), []
+while data:
+    size = int.from_bytes(data[:4], "little")
+    received.append(data[4:4 + size])
+    data = data[4 + size:]
+assert len(received) == 400, len(received)
+missing = [m for m in received if m not in recorded]
+assert not missing, f"{len(missing)} of {len(received)} not on the bus"
+EOF
+[ "$(metric "$run" "r['to_ros']['/iap/odom']['round_trip']['unanswered']")" = 0 ] ||
+  fail "unanswered odometry: $(metric "$run" "r")"
+answered=$(metric "$run" "r['to_ros']['/iap/odom']['round_trip']['answered']")
+[ "$answered" -gt 1000 ] || fail "only $answered round trips: $(metric "$run" "r")"
+forwarded=$(metric "$run" "r['from_ros']['/iap/setpoint']['forwarded']")
+received=$($python -c "import json; print(json.load(open('$run/metrics.json'))['processes']['control']['bus']['topics']['/three_star/ros_setpoint']['received'])")
+[ "$forwarded" = "$received" ] || fail "$forwarded setpoints forwarded, $received reached the controller"
+
+# --- lockstep: the node is a participant, so two runs are the same run --------------------------------------
+for i in 1 2; do
+  "$iapsim" run "$scenario" --out "$work/lockstep$i" --set mode=lockstep --set duration_s=12 \
+    > "$work/lockstep$i.log" 2>&1 &
+  pids+=($!)
+  launcher=$!
+  wait_for_master "$work/lockstep$i"
+  square_node "$work/lockstep$i" "$work/square$i.log" || fail "lockstep $i: $(cat "$work/square$i.log")"
+  wait_code $launcher
+  [ $code -eq 0 ] || fail "lockstep run $i exited $code: $(tail -20 "$work/lockstep$i.log")"
+done
+cmp "$work/lockstep1/run.bag" "$work/lockstep2/run.bag" || fail "two lockstep runs with a ROS node differ"
+[ "$(metric "$work/lockstep1" "r['to_ros']['/iap/odom']['round_trip']['before_first_answer']")" = 0 ] ||
+  fail "lockstep forwarded odometry before the node listened"
+
+# --- bad configurations, a dead master, no orphans ---------------------------------------------------------
+expect_exit 2 "to_ros[0].type: 'nav_msgs/Odom' is not a message type iapsim knows" \
+  "$bin/iapsim_ros_bridge" --scenario "$scenario" --node ros --check \
+  --set processes.ros.params.to_ros.0.type=nav_msgs/Odom
+expect_exit 2 "answers: '/iap/odometry' is not the ROS name of a to_ros topic" \
+  "$bin/iapsim_ros_bridge" --scenario "$scenario" --node ros --check \
+  --set processes.ros.params.from_ros.0.answers=/iap/odometry
+run=$work/dead_master
+"$iapsim" run "$scenario" --out "$run" --set duration_s=30 > "$work/dead_master.log" 2>&1 &
+pids+=($!)
+launcher=$!
+wait_for_master "$run"
+sleep 1
+port=$(sed -E 's#.*:([0-9]+)/#\1#' "$run/ros/master_uri")
+pkill -TERM -f "roscore -p $port" || fail "no roscore on port $port"
+wait_code $launcher
+[ $code -ne 0 ] || fail "the run went on without its ROS master"
+grep -qF "ROS master (roscore, http://127.0.0.1:$port/) exited" "$work/dead_master.log" ||
+  fail "the run's end does not name the ROS master: $(tail -10 "$work/dead_master.log")"
+sleep 0.5
+for uri in "$work"/*/ros/master_uri; do  # roscore and rosmaster name the port, rosout its log folder
+  port=$(sed -E 's#.*:([0-9]+)/#\1#' "$uri")
+  if pgrep -f -- "-p $port" > /dev/null || pgrep -f "$(dirname "$uri")/" > /dev/null; then
+    fail "a ROS process of $(dirname "$(dirname "$uri")") outlived its run: $(pgrep -af -- "-p $port")"
+  fi
+done
+echo "ros bridge: realtime square with $answered round trips, lockstep reproducible, errors named"
