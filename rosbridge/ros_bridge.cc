@@ -1,10 +1,12 @@
 #include "rosbridge/ros_bridge.h"
 
+#include <iapsim_msgs/IapState.h>
 #include <ros/callback_queue.h>
 #include <ros/master.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <spdlog/spdlog.h>
+#include <tf2_msgs/TFMessage.h>
 #include <topic_tools/shape_shifter.h>
 
 #include <algorithm>
@@ -17,7 +19,9 @@
 
 #include "bridge/eigen_msgs.h"
 #include "bridge/message_registry.h"
+#include "model/urdf.h"
 #include "rosbridge/ros_master.h"
+#include "rosbridge/vehicle_tf.h"
 
 namespace iapsim::rosbridge {
 namespace {
@@ -64,12 +68,14 @@ template <class Read>
 void ReadList(bridge::YamlMap& params, const std::string& key, const std::string& expected, Read read) {
   const YAML::Node list = params.Raw(key);
   if (list && !list.IsSequence()) params.Fail(key, "expected a list of " + expected);
+  YAML::Node resolved(YAML::NodeType::Sequence);  // each entry as read (a file's path made absolute)
   for (size_t i = 0; list && i < list.size(); ++i) {
     bridge::YamlMap entry(list[i], params.file(), params.PathOf(key) + "[" + std::to_string(i) + "]");
     read(entry);
     entry.Finish();
+    resolved.push_back(entry.Resolved());
   }
-  params.SetResolved(key, list ? list : YAML::Node(YAML::NodeType::Sequence));
+  params.SetResolved(key, resolved);
 }
 
 // Round trips of a question (a to_ros message) to its answer (a from_ros message of the same stamp), in ms.
@@ -137,6 +143,25 @@ struct FromRos {
   uint64_t received = 0, forwarded = 0, wrong_type = 0;
 };
 
+geometry_msgs::TransformStamped ToMsg(const FrameTransform& t, const ros::Time& stamp) {
+  geometry_msgs::TransformStamped m;
+  m.header.stamp = stamp;
+  m.header.frame_id = t.parent;
+  m.child_frame_id = t.child;
+  m.transform.translation = bridge::ToVector3Msg(t.p_parent_child_m);
+  m.transform.rotation = bridge::ToQuaternionMsg(t.q_parent_child);
+  return m;
+}
+
+// a vehicle on /tf: its frames (rosbridge/vehicle_tf.h) and its --ros URDF
+struct TfVehicle {
+  std::string name;
+  model::Vehicle model;
+  std::optional<VehicleTf> frames;
+  int64_t last_window = -1;
+  uint64_t published = 0;
+};
+
 class RosBridge : public bridge::Process {
  public:
   RosBridge(const bridge::ProcessContext& context, bridge::YamlMap& params)
@@ -154,8 +179,10 @@ class RosBridge : public bridge::Process {
     }
     ReadToRos(params);
     ReadFromRos(params);
-    if (to_ros_.empty() && from_ros_.empty())
-      params.Fail("to_ros", "nothing to forward: give to_ros or from_ros");
+    if (params.Has("tf")) ReadTf(params.Map("tf"), context.scenario.file);
+    if (to_ros_.empty() && from_ros_.empty() && tf_vehicles_.empty()) {
+      params.Fail("to_ros", "nothing to forward: give to_ros, from_ros or tf");
+    }
   }
 
   ~RosBridge() override {
@@ -163,6 +190,8 @@ class RosBridge : public bridge::Process {
     for (ToRos& t : to_ros_) t.publisher.shutdown();
     for (FromRos& f : from_ros_) f.subscriber.shutdown();
     clock_publisher_.shutdown();
+    tf_publisher_.shutdown();
+    tf_static_publisher_.shutdown();
     node_.reset();
     ros::shutdown();
     // the private master stops after this node has unregistered from it
@@ -172,6 +201,11 @@ class RosBridge : public bridge::Process {
   void Setup(bridge::Bus& bus) override {
     bus_ = &bus;
     StartRos();
+    for (TfVehicle& v : tf_vehicles_) {
+      bus.Subscribe<iapsim_msgs::IapState>(
+          "/" + v.name + "/state",
+          [this, &v](const iapsim_msgs::IapState& state, const bridge::MessageInfo&) { OnState(v, state); });
+    }
     for (ToRos& t : to_ros_) {
       bus.SubscribeSerialized(t.topic, t.type->info,
                               [this, &t](const uint8_t* data, size_t size, const bridge::MessageInfo& info) {
@@ -223,6 +257,7 @@ class RosBridge : public bridge::Process {
            {"subscribers", t.publisher ? t.publisher.getNumSubscribers() : 0}};
       if (t.round_trips) r["round_trip"] = t.round_trips->Report();
     }
+    for (const TfVehicle& v : tf_vehicles_) (*report)["tf"][v.name] = {{"published", v.published}};
     for (FromRos& f : from_ros_) {
       (*report)["from_ros"][f.ros_topic] = {{"to", f.topic},
                                             {"received", f.received},
@@ -271,6 +306,59 @@ class RosBridge : public bridge::Process {
     });
   }
 
+  void ReadTf(bridge::YamlMap tf, const std::string& scenario_file) {
+    double rate_hz = 50.0;
+    tf.OptionalInRange("rate_hz", &rate_hz, 0.0, 1e6);
+    tf_period_ns_ = rate_hz > 0.0 ? std::max<int64_t>(1, std::llround(1e9 / rate_hz)) : 0;
+    tf.Optional("robot_description", &robot_description_);
+    ReadList(tf, "vehicles", "{name, file}", [&](bridge::YamlMap& entry) {
+      TfVehicle& v = tf_vehicles_.emplace_back();
+      entry.Required("name", &v.name);
+      const std::string file = bridge::ReadFilePath(entry, "file", scenario_file);
+      try {
+        v.model = model::LoadVehicle(file);
+      } catch (const std::exception& e) {
+        entry.Fail("file", e.what());
+      }
+      v.frames.emplace(v.model, v.name);
+    });
+    if (tf_vehicles_.empty()) tf.Fail("vehicles", "is required: the vehicles whose frames go on /tf");
+    tf.Finish();
+  }
+
+  // /tf_static (latched) and each vehicle's URDF on the parameter server
+  void StartTf() {
+    if (tf_vehicles_.empty()) return;
+    tf_publisher_ = node_->advertise<tf2_msgs::TFMessage>("/tf", static_cast<uint32_t>(queue_size_));
+    tf_static_publisher_ = node_->advertise<tf2_msgs::TFMessage>("/tf_static", 1, /*latch=*/true);
+    tf2_msgs::TFMessage fixed;
+    fixed.transforms.push_back(ToMsg(WorldToNed(), ros::Time(0)));
+    for (const TfVehicle& v : tf_vehicles_) {
+      for (const FrameTransform& t : v.frames->fixed()) fixed.transforms.push_back(ToMsg(t, ros::Time(0)));
+      if (robot_description_) {
+        const std::string urdf = model::GenerateRosUrdf(v.model);
+        ros::param::set("/" + v.name + "/robot_description", urdf);
+        if (tf_vehicles_.size() == 1) ros::param::set("/robot_description", urdf);
+      }
+    }
+    tf_static_publisher_.publish(fixed);
+  }
+
+  void OnState(TfVehicle& v, const iapsim_msgs::IapState& state) {
+    const int64_t stamp_ns = bridge::ToNanoseconds(state.header.stamp);
+    if (tf_period_ns_ > 0) {
+      const int64_t window = stamp_ns / tf_period_ns_;
+      if (window <= v.last_window) return;
+      v.last_window = window;
+    }
+    tf_message_.transforms.clear();
+    for (const FrameTransform& t : v.frames->Moving(state)) {
+      tf_message_.transforms.push_back(ToMsg(t, state.header.stamp));
+    }
+    tf_publisher_.publish(tf_message_);
+    ++v.published;
+  }
+
   void StartRos() {
     ros::M_string remappings;
     if (master_ == "private") {
@@ -303,6 +391,7 @@ class RosBridge : public bridge::Process {
       t.shape.morph(t.type->info.md5, t.type->info.datatype, t.type->info.definition, "0");
       t.publisher = t.shape.advertise(*node_, t.ros_topic, static_cast<uint32_t>(queue_size_));
     }
+    StartTf();
     for (FromRos& f : from_ros_) {
       const boost::function<void(const topic_tools::ShapeShifter::ConstPtr&)> callback =
           [this, &f](const topic_tools::ShapeShifter::ConstPtr& message) { FromRosMessage(f, *message); };
@@ -420,13 +509,17 @@ class RosBridge : public bridge::Process {
   int poll_period_us_ = 100;
   std::deque<ToRos> to_ros_;  // deque: callbacks hold references to the entries
   std::deque<FromRos> from_ros_;
+  std::deque<TfVehicle> tf_vehicles_;
+  int64_t tf_period_ns_ = 0;
+  bool robot_description_ = true;
 
   bridge::Bus* bus_ = nullptr;
   std::optional<PrivateRosMaster> master_process_;
   Clock::time_point last_master_check_{};
   ros::CallbackQueue queue_;
   std::optional<ros::NodeHandle> node_;
-  ros::Publisher clock_publisher_;
+  ros::Publisher clock_publisher_, tf_publisher_, tf_static_publisher_;
+  tf2_msgs::TFMessage tf_message_;
   rosgraph_msgs::Clock clock_message_;
   std::vector<uint8_t> buffer_;
   bool connected_ = false;

@@ -3,7 +3,8 @@
 # - realtime: the bridge's private roscore; ros_square_node (plain roscpp) reads the odometry, answers with
 #   setpoints and sees the IAP reach every corner of its square; a rospy node receives /clock and the
 #   odometry, whose bytes equal the bus's (as recorded in run.bag); every setpoint reaches the controller
-#   and the bridge reports the round trips;
+#   and the bridge reports the round trips; /tf and /tf_static compose to the sub-aircraft's recorded poses, and
+#   robot_description is set;
 # - lockstep: the node answers every odometry (`answers`), so two runs give the same bag;
 # - bad configurations are refused naming the key, a dead roscore ends the run naming it, and no roscore
 #   outlives its run.
@@ -42,25 +43,42 @@ pids+=($!)
 launcher=$!
 wait_for_master "$run"
 cat > "$work/capture.py" << 'EOF'
-# the bytes of N messages of /iap/odom as a rospy node receives them, and whether /clock came
+# the bytes of N messages of /iap/odom as a rospy node receives them, whether /clock came, and /tf,
+# /tf_static and robot_description (as JSON)
+import json
 import sys
 import rospy
 from rospy.msg import AnyMsg
 from rosgraph_msgs.msg import Clock
+from tf2_msgs.msg import TFMessage
 out, wanted = open(sys.argv[1], "wb"), int(sys.argv[2])
-seen = {"odom": 0, "clock": 0}
+seen = {"odom": 0, "clock": 0, "tf": [], "tf_static": []}
 def on_odom(message):
     if seen["odom"] < wanted:
         out.write(len(message._buff).to_bytes(4, "little") + message._buff)
     seen["odom"] += 1
 def on_clock(message):
     seen["clock"] += 1
+def transforms(message):
+    return [{"stamp": t.header.stamp.to_nsec(), "parent": t.header.frame_id, "child": t.child_frame_id,
+             "p": [t.transform.translation.x, t.transform.translation.y, t.transform.translation.z],
+             "q": [t.transform.rotation.w, t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z]}
+            for t in message.transforms]
+def on_tf(message):
+    if len(seen["tf"]) < 50:
+        seen["tf"].append(transforms(message))
+def on_tf_static(message):
+    seen["tf_static"] = transforms(message)
 rospy.init_node("capture", anonymous=True, disable_signals=True)
 rospy.Subscriber("/iap/odom", AnyMsg, on_odom, tcp_nodelay=True)
 rospy.Subscriber("/clock", Clock, on_clock)
-while seen["odom"] < wanted and not rospy.is_shutdown():
+rospy.Subscriber("/tf", TFMessage, on_tf)
+rospy.Subscriber("/tf_static", TFMessage, on_tf_static)
+while (seen["odom"] < wanted or len(seen["tf"]) < 50) and not rospy.is_shutdown():
     rospy.rostime.wallsleep(0.05)
 out.close()
+seen["robot_description"] = rospy.get_param("/three_star/robot_description", "")
+json.dump(seen, open(sys.argv[1] + ".json", "w"))
 print("odom", seen["odom"], "clock", seen["clock"])
 EOF
 ROS_MASTER_URI=$(cat "$run/ros/master_uri") ROS_IP=127.0.0.1 ROS_HOME=$work/ros_home \
@@ -87,6 +105,44 @@ while data:
 assert len(received) == 400, len(received)
 missing = [m for m in received if m not in recorded]
 assert not missing, f"{len(missing)} of {len(received)} not on the bus"
+EOF
+$python - "$work/odom.bin.json" "$run/run.bag" << 'EOF' || fail "/tf does not put the bodies where the bus has them"
+# /tf and /tf_static compose, frame by frame, to the sub-aircraft's recorded odometry (W -> three_star/subI)
+import json
+import sys
+import rosbag
+def multiply(a, b):
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return [w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2]
+def rotate(q, v):
+    return multiply(multiply(q, [0.0] + v), [q[0], -q[1], -q[2], -q[3]])[1:]
+seen = json.load(open(sys.argv[1]))
+assert "sub1_roll" in seen["robot_description"], "no robot_description"
+static = {t["child"]: t for t in seen["tf_static"]}
+assert static["W"]["parent"] == "world", static
+odom = {}
+for topic, message, _ in rosbag.Bag(sys.argv[2]).read_messages(
+        topics=["/three_star/sub1/odom", "/three_star/sub2/odom", "/three_star/sub3/odom"]):
+    odom[(topic.split("/")[2], message.header.stamp.to_nsec())] = message.pose.pose
+checked = 0
+for message in seen["tf"]:
+    frames = dict(static, **{t["child"]: t for t in message})
+    for sub in ("sub1", "sub2", "sub3"):
+        frame, p, q = "three_star/" + sub, [0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]
+        while frame != "W":
+            t = frames[frame]
+            p = [a + b for a, b in zip(rotate(t["q"], p), t["p"])]
+            q = multiply(t["q"], q)
+            frame = t["parent"]
+        pose = odom[(sub, message[0]["stamp"])]
+        expected_q = [pose.orientation.w, pose.orientation.x, pose.orientation.y, pose.orientation.z]
+        position = [pose.position.x, pose.position.y, pose.position.z]
+        assert max(abs(a - b) for a, b in zip(p, position)) < 1e-9, (p, position)
+        assert abs(abs(sum(a * b for a, b in zip(q, expected_q))) - 1.0) < 1e-9, (q, expected_q)
+        checked += 1
+assert checked == 150, checked
 EOF
 [ "$(metric "$run" "r['to_ros']['/iap/odom']['round_trip']['unanswered']")" = 0 ] ||
   fail "unanswered odometry: $(metric "$run" "r")"
@@ -128,7 +184,7 @@ port=$(sed -E 's#.*:([0-9]+)/#\1#' "$run/ros/master_uri")
 pkill -TERM -f "roscore -p $port" || fail "no roscore on port $port"
 wait_code $launcher
 [ $code -ne 0 ] || fail "the run went on without its ROS master"
-grep -qF "ROS master (roscore, http://127.0.0.1:$port/) exited" "$work/dead_master.log" ||
+grep -qF "ROS master (roscore, http://127.0.0.1:$port/)" "$work/dead_master.log" ||
   fail "the run's end does not name the ROS master: $(tail -10 "$work/dead_master.log")"
 sleep 0.5
 for uri in "$work"/*/ros/master_uri; do  # roscore and rosmaster name the port, rosout its log folder

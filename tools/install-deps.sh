@@ -33,9 +33,9 @@ packages=(
   # `iapsim sweep --slurm` (sbatch, squeue, scancel), and the one-node cluster of tools/slurm_local_cluster.sh
   # its tests and benchmark bring up
   slurm-client slurmctld slurmd munge
-  # the live ROS bridge (rosbridge/): roscpp and topic_tools' ShapeShifter, roscore for a run's private
-  # master, rospy for the test's ROS node
-  libroscpp-dev libtopic-tools-dev ros-core python3-rospy python3-rosgraph-msgs
+  # the live ROS bridge (rosbridge/): roscpp and topic_tools' ShapeShifter, tf2_msgs for /tf, roscore for a
+  # run's private master, rospy for the test's ROS node
+  libroscpp-dev libtopic-tools-dev libtf2-msgs-dev ros-core python3-rospy python3-rosgraph-msgs python3-tf2-msgs
   # tests and benchmarks (MuJoCo: the reference beside iapsim in `iapsim bench physics`; check_urdf for the
   # URDF that `iapsim urdf --ros` writes)
   libgtest-dev libgmock-dev libbenchmark-dev libmujoco-dev liburdfdom-tools
