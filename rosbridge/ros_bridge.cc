@@ -20,6 +20,7 @@
 #include "bridge/eigen_msgs.h"
 #include "bridge/message_registry.h"
 #include "model/urdf.h"
+#include "rosbridge/mount_frames.h"
 #include "rosbridge/ros_master.h"
 #include "rosbridge/vehicle_tf.h"
 
@@ -179,7 +180,7 @@ class RosBridge : public bridge::Process {
     }
     ReadToRos(params);
     ReadFromRos(params);
-    if (params.Has("tf")) ReadTf(params.Map("tf"), context.scenario.file);
+    if (params.Has("tf")) ReadTf(params.Map("tf"), context.scenario);
     if (to_ros_.empty() && from_ros_.empty() && tf_vehicles_.empty()) {
       params.Fail("to_ros", "nothing to forward: give to_ros, from_ros or tf");
     }
@@ -306,7 +307,7 @@ class RosBridge : public bridge::Process {
     });
   }
 
-  void ReadTf(bridge::YamlMap tf, const std::string& scenario_file) {
+  void ReadTf(bridge::YamlMap tf, const bridge::Scenario& scenario) {
     double rate_hz = 50.0;
     tf.OptionalInRange("rate_hz", &rate_hz, 0.0, 1e6);
     tf_period_ns_ = rate_hz > 0.0 ? std::max<int64_t>(1, std::llround(1e9 / rate_hz)) : 0;
@@ -314,7 +315,7 @@ class RosBridge : public bridge::Process {
     ReadList(tf, "vehicles", "{name, file}", [&](bridge::YamlMap& entry) {
       TfVehicle& v = tf_vehicles_.emplace_back();
       entry.Required("name", &v.name);
-      const std::string file = bridge::ReadFilePath(entry, "file", scenario_file);
+      const std::string file = bridge::ReadFilePath(entry, "file", scenario.file);
       try {
         v.model = model::LoadVehicle(file);
       } catch (const std::exception& e) {
@@ -323,6 +324,21 @@ class RosBridge : public bridge::Process {
       v.frames.emplace(v.model, v.name);
     });
     if (tf_vehicles_.empty()) tf.Fail("vehicles", "is required: the vehicles whose frames go on /tf");
+    const YAML::Node mounts = tf.Raw("mounts_from");
+    if (mounts && !mounts.IsSequence()) tf.Fail("mounts_from", "expected a list of process names");
+    for (size_t i = 0; mounts && i < mounts.size(); ++i) {
+      if (!mounts[i].IsScalar()) tf.Fail("mounts_from", "expected a list of process names");
+      const std::string process = mounts[i].Scalar();
+      try {
+        MountFrames frames = ReadMountFrames(scenario, process);
+        mount_frames_.insert(mount_frames_.end(), frames.fixed.begin(), frames.fixed.end());
+        for (const std::string& frame : frames.moving) {
+          spdlog::info("tf: {} of '{}' moves with its body and is not on /tf", frame, process);
+        }
+      } catch (const std::exception& e) {
+        tf.Fail("mounts_from", e.what());
+      }
+    }
     tf.Finish();
   }
 
@@ -335,6 +351,9 @@ class RosBridge : public bridge::Process {
     fixed.transforms.push_back(ToMsg(WorldToNed(), ros::Time(0)));
     for (const TfVehicle& v : tf_vehicles_) {
       for (const FrameTransform& t : v.frames->fixed()) fixed.transforms.push_back(ToMsg(t, ros::Time(0)));
+    }
+    for (const FrameTransform& t : mount_frames_) fixed.transforms.push_back(ToMsg(t, ros::Time(0)));
+    for (const TfVehicle& v : tf_vehicles_) {
       if (robot_description_) {
         const std::string urdf = model::GenerateRosUrdf(v.model);
         ros::param::set("/" + v.name + "/robot_description", urdf);
@@ -510,6 +529,7 @@ class RosBridge : public bridge::Process {
   std::deque<ToRos> to_ros_;  // deque: callbacks hold references to the entries
   std::deque<FromRos> from_ros_;
   std::deque<TfVehicle> tf_vehicles_;
+  std::vector<FrameTransform> mount_frames_;  // sensors' and cameras' (tf.mounts_from)
   int64_t tf_period_ns_ = 0;
   bool robot_description_ = true;
 

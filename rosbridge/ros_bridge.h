@@ -21,11 +21,13 @@
 //     the question to the bus publish of the answer) and reports it; in lockstep it also waits, at each of
 //     its steps, for the answer to what it forwarded (up to answer_timeout_s), which makes the ROS node a
 //     lockstep participant: the run is then as reproducible as the node.
-//   tf: {vehicles: [{name, file}], rate_hz: 50, robot_description: true}
+//   tf: {vehicles: [{name, file}], rate_hz: 50, robot_description: true, mounts_from: [PROCESS...]}
 //     /tf from each vehicle's /<name>/state (the first state of each 1/rate window of sim time; 0: every
 //     state), /tf_static (latched) for the fixed frames, in the scheme of rosbridge/vehicle_tf.h, and the
 //     vehicle's `iapsim urdf --ros` URDF as /<name>/robot_description (and /robot_description for one
 //     vehicle)
+//     mounts_from: sensors and render processes of the scenario whose IMU and camera frames go on /tf_static
+//     (rosbridge/mount_frames.h)
 //
 // Timing. realtime and fast: a message from ROS goes onto the bus as soon as it arrives (the process looks
 // every poll_period_us); lockstep: messages from ROS are published at this process's next step, so they are

@@ -13,12 +13,6 @@ Eigen::Quaterniond AboutAxis(double angle_rad, const Eigen::Vector3d& axis) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(angle_rad, axis));
 }
 
-// URDF's rpy: fixed axes x, y, z, so R = Rz(yaw) Ry(pitch) Rx(roll)
-Eigen::Quaterniond FromUrdfRpy(const Eigen::Vector3d& rpy_rad) {
-  return AboutAxis(rpy_rad.z(), Eigen::Vector3d::UnitZ()) * AboutAxis(rpy_rad.y(), Eigen::Vector3d::UnitY()) *
-         AboutAxis(rpy_rad.x(), Eigen::Vector3d::UnitX());
-}
-
 }  // namespace
 
 FrameTransform WorldToNed() {
@@ -41,7 +35,8 @@ VehicleTf::VehicleTf(const model::Vehicle& vehicle, const std::string& name)
   fixed_.push_back({prefix + "base_link", prefix + "platform"});
   fixed_.push_back({prefix + "platform", prefix + "P"});
   for (const model::Tool& tool : vehicle.tools) {
-    fixed_.push_back({prefix + "platform", prefix + tool.name, tool.origin_P_m, FromUrdfRpy(tool.rpy_P_rad)});
+    fixed_.push_back({prefix + "platform", prefix + tool.name, tool.origin_P_m,
+                      Eigen::Quaterniond(model::RotationFromRpy(tool.rpy_P_rad))});
   }
   for (size_t s = 0; s < vehicle.sub_aircraft.size(); ++s) {
     const model::SubAircraft& sub = vehicle.sub_aircraft[s];
