@@ -10,8 +10,7 @@ namespace iapsim::rosbridge {
 
 MountFrames ReadMountFrames(const bridge::Scenario& scenario, const std::string& process) {
   const bridge::ProcessConfig* config = scenario.Find(process);
-  if (!config)
-    throw bridge::ConfigError(scenario.file + ": no process '" + process + "' to read mounts from");
+  if (!config) throw bridge::ConfigError("no process '" + process + "' to read mounts from");
   // a copy: the reader marks keys as read, and the process's own check reads them all
   bridge::YamlMap params(YAML::Clone(config->params), scenario.file, "processes." + process + ".params");
   const std::string exec = std::filesystem::path(config->exec).filename();
@@ -43,7 +42,7 @@ MountFrames ReadMountFrames(const bridge::Scenario& scenario, const std::string&
       }
     }
   } else {
-    throw bridge::ConfigError(scenario.file + ": process '" + process + "' runs " + exec +
+    throw bridge::ConfigError("process '" + process + "' runs " + exec +
                               ": mounts come from an iapsim_sensors or iapsim_render process");
   }
   return frames;

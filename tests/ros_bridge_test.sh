@@ -168,6 +168,12 @@ cmp "$work/lockstep1/run.bag" "$work/lockstep2/run.bag" || fail "two lockstep ru
   fail "lockstep forwarded odometry before the node listened"
 
 # --- bad configurations, a dead master, no orphans ---------------------------------------------------------
+# the rviz example's configuration (a render process's camera mounts on /tf_static) checks
+"$iapsim" run "$src/configs/scenarios/three_star_ros_rviz.yaml" --check > "$work/check.log" 2>&1 ||
+  fail "three_star_ros_rviz.yaml: $(cat "$work/check.log")"
+expect_exit 2 "mounts come from an iapsim_sensors or iapsim_render process" \
+  "$bin/iapsim_ros_bridge" --scenario "$src/configs/scenarios/three_star_ros_rviz.yaml" --node ros --check \
+  --set 'processes.ros.params.tf.mounts_from=[physics]'
 expect_exit 2 "to_ros[0].type: 'nav_msgs/Odom' is not a message type iapsim knows" \
   "$bin/iapsim_ros_bridge" --scenario "$scenario" --node ros --check \
   --set processes.ros.params.to_ros.0.type=nav_msgs/Odom
