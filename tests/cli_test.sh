@@ -182,6 +182,26 @@ for run in b c; do
 done
 [ "$(wc -l < "$work/workers_a/ppo/log.csv")" -eq 4 ] || fail "workers: $(cat "$work/workers_a/ppo/log.csv")"
 ! pgrep -f -- "--ppo-rendezvous $work" > /dev/null || fail "a PPO worker is left running"
+# a worker that dies mid-training ends the training at once, naming its log (not after Gloo's 600 s timeout)
+"$iapsim" rl train "$work/workers_killed" "${workers[@]}" --ppo-iterations 100000 > "$work/workers_killed.out" 2>&1 &
+trainer=$!
+for _ in $(seq 1 600); do
+  worker=$(pgrep -f -- "--ppo-rendezvous $work/workers_killed/.* --ppo-rank 1" || true)
+  [ -n "$worker" ] && grep -q "^1," "$work/workers_killed/ppo/log.csv" 2> /dev/null && break
+  sleep 0.1
+done
+[ -n "$worker" ] || fail "no PPO worker found running: $(cat "$work/workers_killed.out")"
+kill -9 "$worker"
+set +e
+timeout 120 tail --pid="$trainer" -f /dev/null
+waited=$?
+wait "$trainer"
+code=$?
+set -e
+[ $waited -eq 0 ] || fail "rl train went on for 120 s after its worker was killed"
+[ $code -ne 0 ] || fail "rl train succeeded without its worker"
+grep -qF "ppo: worker 1 was killed by signal 9; see $work/workers_killed/ppo/worker-1.log" "$work/workers_killed.out" ||
+  fail "a killed worker: $(cat "$work/workers_killed.out")"
 for policy in td3bc ppo; do
   "$iapsim" rl eval --task "$src/configs/rl/docking.yaml" --policy "$work/train/$policy/policy.pt" --episodes 1 \
     --set termination.max_steps=20 > "$work/eval_$policy.out" || fail "rl eval of the $policy policy: $(cat "$work/eval_$policy.out")"

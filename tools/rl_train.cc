@@ -16,6 +16,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -25,6 +26,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
+#include <thread>
 
 #include "rl/dataset.h"
 #include "rl/evaluation.h"
@@ -177,31 +179,52 @@ class LocalWorkers {
       }
       pids_.push_back(pid);
     }
+    ended_.assign(pids_.size(), false);
+    monitor_ = std::thread([this] { Monitor(); });
   }
-  // Waits for each; throws naming the log of one that failed.
-  void Wait() {
-    for (size_t i = 0; i < pids_.size(); ++i) {
-      int status = 0;
-      waitpid(pids_[i], &status, 0);
-      pids_[i] = -1;
-      if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        throw std::runtime_error("ppo: worker " + std::to_string(i + 1) + " failed; see " + logs_[i]);
-      }
-    }
-  }
+  // Waits for each to end (one that fails ends this process, Monitor).
+  void Wait() { monitor_.join(); }
   ~LocalWorkers() {
-    for (const pid_t pid : pids_) {
-      if (pid <= 0) continue;
-      kill(pid, SIGTERM);
-      waitpid(pid, nullptr, 0);
+    stop_ = true;
+    if (monitor_.joinable()) monitor_.join();
+    for (size_t i = 0; i < pids_.size(); ++i) {
+      if (i < ended_.size() && ended_[i]) continue;
+      kill(pids_[i], SIGTERM);
+      waitpid(pids_[i], nullptr, 0);
     }
   }
   LocalWorkers(const LocalWorkers&) = delete;
   LocalWorkers& operator=(const LocalWorkers&) = delete;
 
  private:
+  // Reaps the workers as they end. One that fails while this process trains would leave it waiting in a
+  // collective for Gloo's timeout (600 s): the run ends at once instead, naming the worker's log (checkpoints
+  // are written whole or not at all, and the other workers go with this process, PR_SET_PDEATHSIG).
+  void Monitor() {
+    size_t running = pids_.size();
+    while (running > 0 && !stop_) {
+      for (size_t i = 0; i < pids_.size(); ++i) {
+        int status = 0;
+        if (ended_[i] || waitpid(pids_[i], &status, WNOHANG) != pids_[i]) continue;
+        ended_[i] = true;
+        --running;
+        if (WIFEXITED(status) && WEXITSTATUS(status) == 0) continue;
+        const std::string how = WIFEXITED(status)
+                                    ? "exited with status " + std::to_string(WEXITSTATUS(status))
+                                    : "was killed by signal " + std::to_string(WTERMSIG(status));
+        std::fprintf(stderr, "iapsim rl train: ppo: worker %zu %s; see %s\n", i + 1, how.c_str(),
+                     logs_[i].c_str());
+        std::_Exit(1);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+  }
+
   std::vector<pid_t> pids_;
   std::vector<std::string> logs_;
+  std::vector<bool> ended_;
+  std::atomic<bool> stop_{false};
+  std::thread monitor_;
 };
 
 // Who this process is among PPO's workers: alone; the first of --ppo-workers N, which starts the others
