@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <optional>
+#include <set>
 #include <thread>
 
 #include "bridge/eigen_msgs.h"
@@ -480,26 +481,48 @@ class RosBridge : public bridge::Process {
     }
   }
 
-  // lockstep, before the first question goes out: every answering node has subscribed to its question and
-  // publishes its answer (a question sent before would be lost)
+  // lockstep, before the first question goes out: a node that the master lists as subscribing to the
+  // question and publishing the answer, and every subscriber of the question connected to this node (a
+  // question sent before would be lost; another subscriber, such as rviz, is not taken for the answering
+  // node)
   void WaitForAnsweringNodes() {
     for (FromRos& f : from_ros_) {
       if (!f.question) continue;
       const auto deadline = Clock::now() + std::chrono::duration<double>(f.answer_timeout_s);
-      while (f.question->publisher.getNumSubscribers() == 0 || f.subscriber.getNumPublishers() == 0) {
+      while (!AnsweringNodeConnected(f)) {
         if (Clock::now() > deadline) {
-          throw std::runtime_error(
-              "no ROS node " +
-              std::string(f.question->publisher.getNumSubscribers() == 0 ? "subscribed to " + f.answers
-                                                                         : "publishes " + f.ros_topic) +
-              " within " + std::to_string(f.answer_timeout_s) + " s (answer_timeout_s of " + f.ros_topic +
-              "), at " + ros::master::getURI());
+          throw std::runtime_error("no ROS node subscribed to " + f.answers + " and publishing " +
+                                   f.ros_topic + " (connected) within " + std::to_string(f.answer_timeout_s) +
+                                   " s (answer_timeout_s of " + f.ros_topic + "), at " +
+                                   ros::master::getURI());
         }
         CheckMaster();
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
       }
     }
     connected_ = true;
+  }
+
+  bool AnsweringNodeConnected(const FromRos& f) const {
+    XmlRpc::XmlRpcValue request, response, state;
+    request[0] = ros::this_node::getName();
+    if (!ros::master::execute("getSystemState", request, response, state, false)) return false;
+    // state: [publishers, subscribers, services], each [[topic, [node, ...]], ...]
+    const auto nodes_of = [&state](int kind, const std::string& topic) {
+      std::set<std::string> nodes;
+      for (int i = 0; i < state[kind].size(); ++i) {
+        if (static_cast<std::string>(state[kind][i][0]) != topic) continue;
+        for (int n = 0; n < state[kind][i][1].size(); ++n)
+          nodes.insert(static_cast<std::string>(state[kind][i][1][n]));
+      }
+      return nodes;
+    };
+    const std::set<std::string> answering = nodes_of(0, f.ros_topic), asked = nodes_of(1, f.answers);
+    const bool both = std::any_of(asked.begin(), asked.end(), [&answering](const std::string& node) {
+      return answering.count(node) > 0;
+    });
+    return both && f.question->publisher.getNumSubscribers() >= asked.size() &&
+           f.subscriber.getNumPublishers() > 0;
   }
 
   void WaitForAnswer(FromRos& f, const bridge::StepInfo& step) {
