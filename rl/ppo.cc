@@ -141,20 +141,21 @@ Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::stri
           ") under potential shaping, which keeps the optimal policy only for the same γ");
   Impl& impl = *impl_;
   impl.config = config;
-  ActorFile start = ReadActor(initial_policy);
-  impl.actor = start.actor;
-  impl.mean = start.mean;
-  impl.std = start.std;
-  impl.anchor = ReadActor(initial_policy).actor;
-  for (torch::Tensor& p : impl.anchor->parameters()) p.requires_grad_(false);
   {
-    // the value network's initial weights, from torch's process-wide generator: learners made at once on
-    // several threads (a test's workers) take turns
+    // The value network's initial weights come from torch's process-wide generator, which building any
+    // network draws from (ReadActor's too, before it loads the weights): learners made at once on several
+    // threads (a test's workers) take turns for all of it, or one's draws would shift the other's seeded ones
     static std::mutex seeding;
     const std::lock_guard<std::mutex> lock(seeding);
+    ActorFile start = ReadActor(initial_policy);
+    impl.actor = start.actor;
+    impl.mean = start.mean;
+    impl.std = start.std;
+    impl.anchor = ReadActor(initial_policy).actor;
     torch::manual_seed(config.seed);
     impl.value = Mlp(kObservationSize, config.value_hidden, 1);
   }
+  for (torch::Tensor& p : impl.anchor->parameters()) p.requires_grad_(false);
   impl.log_std = torch::full({kActionSize}, std::log(config.initial_std), torch::kFloat32).requires_grad_();
   impl.generator = at::detail::createCPUGenerator(config.seed);
   impl.actor_optimizer = std::make_unique<torch::optim::Adam>(

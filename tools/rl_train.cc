@@ -21,6 +21,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -185,6 +186,9 @@ class LocalWorkers {
   // Waits for each to end (one that fails ends this process, Monitor).
   void Wait() { monitor_.join(); }
   ~LocalWorkers() {
+    // this worker's training failed, perhaps because Gloo saw a peer's death first ("Connection closed by
+    // peer"): Monitor, which reaps a dead worker within 50 ms, gets the time to end the run naming it
+    if (std::uncaught_exceptions() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(500));
     stop_ = true;
     if (monitor_.joinable()) monitor_.join();
     for (size_t i = 0; i < pids_.size(); ++i) {
