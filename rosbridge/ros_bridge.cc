@@ -80,6 +80,23 @@ void ReadList(bridge::YamlMap& params, const std::string& key, const std::string
   params.SetResolved(key, resolved);
 }
 
+// rate_hz of a forwarded topic: the first message of each window of 1/rate of its stamp passes
+struct StampWindow {
+  int64_t period_ns = 0;  // 0: every message
+  int64_t last_window = -1;
+
+  void SetRate(double rate_hz) {
+    period_ns = rate_hz > 0.0 ? std::max<int64_t>(1, std::llround(1e9 / rate_hz)) : 0;
+  }
+  bool Passes(int64_t stamp_ns) {
+    if (period_ns == 0) return true;
+    const int64_t window = stamp_ns / period_ns;
+    if (window <= last_window) return false;
+    last_window = window;
+    return true;
+  }
+};
+
 // Round trips of a question (a to_ros message) to its answer (a from_ros message of the same stamp), in ms.
 struct RoundTrips {
   std::deque<std::pair<int64_t, int64_t>> open;  // (stamp, bus send time) of questions not answered yet
@@ -119,8 +136,7 @@ struct RoundTrips {
 struct ToRos {
   std::string topic, ros_topic;
   const bridge::RegisteredType* type = nullptr;
-  int64_t period_ns = 0;  // rate_hz: one message per window of its stamp
-  int64_t last_window = -1;
+  StampWindow rate;
   ros::Publisher publisher;
   topic_tools::ShapeShifter shape;
   std::optional<RoundTrips> round_trips;  // a from_ros topic answers this one
@@ -160,14 +176,15 @@ struct TfVehicle {
   std::string name;
   model::Vehicle model;
   std::optional<VehicleTf> frames;
-  int64_t last_window = -1;
+  StampWindow rate;
   uint64_t published = 0;
 };
 
 class RosBridge : public bridge::Process {
  public:
   RosBridge(const bridge::ProcessContext& context, bridge::YamlMap& params)
-      : mode_(context.scenario.mode), run_dir_(context.run_dir) {
+      : mode_(context.scenario.mode),
+        ros_dir_((context.run_dir.empty() ? std::string(".") : context.run_dir) + "/ros") {
     params.OptionalChoice("master", &master_, {"environment", "private"});
     params.OptionalInRange("master_port", &master_port_, 0, 65535);
     params.OptionalInRange("master_timeout_s", &master_timeout_s_, 0.1, 600.0);
@@ -181,6 +198,19 @@ class RosBridge : public bridge::Process {
     }
     ReadToRos(params);
     ReadFromRos(params);
+    // a lockstep step that waits for an answer neither acknowledges nor sends a heartbeat meanwhile: the
+    // clock and the launcher must wait as long
+    for (const FromRos& f : from_ros_) {
+      const double longest_s = std::min(context.self.hang_timeout_s, context.scenario.clock.ack_timeout_s);
+      if (f.question && mode_ == bridge::ClockMode::kLockstep && longest_s <= f.answer_timeout_s) {
+        params.Fail("from_ros",
+                    "lockstep waits up to answer_timeout_s (" + std::to_string(f.answer_timeout_s) +
+                        " s) for " + f.ros_topic +
+                        ": give clock.ack_timeout_s and this process's hang_timeout_s more (they are " +
+                        std::to_string(context.scenario.clock.ack_timeout_s) + " and " +
+                        std::to_string(context.self.hang_timeout_s) + " s)");
+      }
+    }
     if (params.Has("tf")) ReadTf(params.Map("tf"), context.scenario);
     if (to_ros_.empty() && from_ros_.empty() && tf_vehicles_.empty()) {
       params.Fail("to_ros", "nothing to forward: give to_ros, from_ros or tf");
@@ -279,7 +309,7 @@ class RosBridge : public bridge::Process {
         if (t.type->schema->StampOffset() < 0) {
           entry.Fail("rate_hz", "needs a stamped type (" + t.type->info.datatype + " has no header.stamp)");
         }
-        t.period_ns = std::max<int64_t>(1, std::llround(1e9 / rate_hz));
+        t.rate.SetRate(rate_hz);
       }
       for (size_t j = 0; j + 1 < to_ros_.size(); ++j) {
         if (to_ros_[j].ros_topic == t.ros_topic)
@@ -311,7 +341,6 @@ class RosBridge : public bridge::Process {
   void ReadTf(bridge::YamlMap tf, const bridge::Scenario& scenario) {
     double rate_hz = 50.0;
     tf.OptionalInRange("rate_hz", &rate_hz, 0.0, 1e6);
-    tf_period_ns_ = rate_hz > 0.0 ? std::max<int64_t>(1, std::llround(1e9 / rate_hz)) : 0;
     tf.Optional("robot_description", &robot_description_);
     ReadList(tf, "vehicles", "{name, file}", [&](bridge::YamlMap& entry) {
       TfVehicle& v = tf_vehicles_.emplace_back();
@@ -323,6 +352,7 @@ class RosBridge : public bridge::Process {
         entry.Fail("file", e.what());
       }
       v.frames.emplace(v.model, v.name);
+      v.rate.SetRate(rate_hz);
     });
     if (tf_vehicles_.empty()) tf.Fail("vehicles", "is required: the vehicles whose frames go on /tf");
     const YAML::Node mounts = tf.Raw("mounts_from");
@@ -352,25 +382,17 @@ class RosBridge : public bridge::Process {
     fixed.transforms.push_back(ToMsg(WorldToNed(), ros::Time(0)));
     for (const TfVehicle& v : tf_vehicles_) {
       for (const FrameTransform& t : v.frames->fixed()) fixed.transforms.push_back(ToMsg(t, ros::Time(0)));
+      if (!robot_description_) continue;
+      const std::string urdf = model::GenerateRosUrdf(v.model);
+      ros::param::set("/" + v.name + "/robot_description", urdf);
+      if (tf_vehicles_.size() == 1) ros::param::set("/robot_description", urdf);
     }
     for (const FrameTransform& t : mount_frames_) fixed.transforms.push_back(ToMsg(t, ros::Time(0)));
-    for (const TfVehicle& v : tf_vehicles_) {
-      if (robot_description_) {
-        const std::string urdf = model::GenerateRosUrdf(v.model);
-        ros::param::set("/" + v.name + "/robot_description", urdf);
-        if (tf_vehicles_.size() == 1) ros::param::set("/robot_description", urdf);
-      }
-    }
     tf_static_publisher_.publish(fixed);
   }
 
   void OnState(TfVehicle& v, const iapsim_msgs::IapState& state) {
-    const int64_t stamp_ns = bridge::ToNanoseconds(state.header.stamp);
-    if (tf_period_ns_ > 0) {
-      const int64_t window = stamp_ns / tf_period_ns_;
-      if (window <= v.last_window) return;
-      v.last_window = window;
-    }
+    if (!v.rate.Passes(bridge::ToNanoseconds(state.header.stamp))) return;
     tf_message_.transforms.clear();
     for (const FrameTransform& t : v.frames->Moving(state)) {
       tf_message_.transforms.push_back(ToMsg(t, state.header.stamp));
@@ -382,11 +404,9 @@ class RosBridge : public bridge::Process {
   void StartRos() {
     ros::M_string remappings;
     if (master_ == "private") {
-      const std::string log_dir = (run_dir_.empty() ? std::string(".") : run_dir_) + "/ros";
-      master_process_.emplace(master_port_, log_dir);
+      master_process_.emplace(master_port_, ros_dir_);
       remappings["__master"] = master_process_->uri();
       remappings["__ip"] = "127.0.0.1";
-      std::ofstream(log_dir + "/master_uri") << master_process_->uri() << "\n";
     } else if (!std::getenv("ROS_MASTER_URI")) {
       throw std::runtime_error("master: environment, but ROS_MASTER_URI is not set (or use master: private)");
     }
@@ -399,6 +419,10 @@ class RosBridge : public bridge::Process {
                                  std::to_string(master_timeout_s_) + " s (master_timeout_s)");
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    // written once the master answers: a user (or a test) starts ROS nodes when the file appears
+    if (master_process_) {
+      std::ofstream(ros_dir_ + "/master_uri") << master_process_->uri() << "\n";
     }
     spdlog::info("ROS master {}{}", ros::master::getURI(),
                  master_process_ ? " (private: export ROS_MASTER_URI=" + ros::master::getURI() + ")" : "");
@@ -431,13 +455,9 @@ class RosBridge : public bridge::Process {
 
   void FromBus(ToRos& t, const uint8_t* data, size_t size, const bridge::MessageInfo& info) {
     const std::optional<int64_t> stamp_ns = bridge::MessageStampNs(*t.type->schema, data, size);
-    if (t.period_ns > 0 && stamp_ns) {
-      const int64_t window = *stamp_ns / t.period_ns;
-      if (window <= t.last_window) {
-        ++t.thinned;
-        return;
-      }
-      t.last_window = window;
+    if (stamp_ns && !t.rate.Passes(*stamp_ns)) {
+      ++t.thinned;
+      return;
     }
     // lockstep: a question goes out at this process's step, once its answering node listens
     if (t.round_trips && mode_ == bridge::ClockMode::kLockstep) {
@@ -541,7 +561,7 @@ class RosBridge : public bridge::Process {
   }
 
   bridge::ClockMode mode_;
-  std::string run_dir_;
+  std::string ros_dir_;  // RUN/ros: the private master's logs and URI
   std::string master_ = "environment";
   int master_port_ = 0;
   double master_timeout_s_ = 30.0;
@@ -553,7 +573,6 @@ class RosBridge : public bridge::Process {
   std::deque<FromRos> from_ros_;
   std::deque<TfVehicle> tf_vehicles_;
   std::vector<FrameTransform> mount_frames_;  // sensors' and cameras' (tf.mounts_from)
-  int64_t tf_period_ns_ = 0;
   bool robot_description_ = true;
 
   bridge::Bus* bus_ = nullptr;

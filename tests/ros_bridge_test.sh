@@ -30,7 +30,7 @@ wait_for_master() {  # RUN_DIR: waits until the bridge has written its private m
 }
 square_node() {  # RUN_DIR LOG: the square node on that run's master, until odometry stops for 2 s
   ROS_MASTER_URI=$(cat "$1/ros/master_uri") ROS_IP=127.0.0.1 ROS_HOME=$work/ros_home \
-    "$bin/ros_square_node" odom:=/iap/odom setpoint:=/iap/setpoint _hold_s:=0.5 _idle_exit_s:=2 > "$2" 2>&1
+    timeout 120 "$bin/ros_square_node" odom:=/iap/odom setpoint:=/iap/setpoint _hold_s:=0.5 _idle_exit_s:=2 > "$2" 2>&1
 }
 metric() {  # RUN_DIR PYTHON_EXPRESSION over the ros process's report `r`
   $python -c "import json,sys; r=json.load(open('$1/metrics.json'))['processes']['ros']['process']; print($2)"
@@ -174,6 +174,9 @@ cmp "$work/lockstep1/run.bag" "$work/lockstep2/run.bag" || fail "two lockstep ru
   fail "lockstep forwarded odometry before the node listened"
 
 # --- bad configurations, a dead master, no orphans ---------------------------------------------------------
+expect_exit 2 "give clock.ack_timeout_s and this process's hang_timeout_s more" \
+  "$bin/iapsim_ros_bridge" --scenario "$scenario" --node ros --check --set mode=lockstep \
+  --set processes.ros.hang_timeout_s=5
 # the rviz example's configuration (a render process's camera mounts on /tf_static) checks
 "$iapsim" run "$src/configs/scenarios/three_star_ros_rviz.yaml" --check > "$work/check.log" 2>&1 ||
   fail "three_star_ros_rviz.yaml: $(cat "$work/check.log")"

@@ -11,7 +11,8 @@
 //   ros_square_node [odom:=/iap/odom] [setpoint:=/iap/setpoint] [_side_m:=1.0] [_tolerance_m:=0.15]
 //                   [_hold_s:=1.0] [_idle_exit_s:=0]
 //
-// It runs until stopped, or with idle_exit_s > 0 until odometry has not come for that long (wall time);
+// It runs until stopped, or with idle_exit_s > 0 until odometry has not come for that long (wall time, from
+// its start when none came);
 // the exit status is 0 when the square was flown.
 
 #include <geometry_msgs/PoseStamped.h>
@@ -97,13 +98,15 @@ int main(int argc, char** argv) {
   double idle_exit_s = 0.0;
   ros::NodeHandle("~").param("idle_exit_s", idle_exit_s, 0.0);
   SquareNode square(node);
+  const ros::WallTime started = ros::WallTime::now();
   // answers until stopped (Ctrl-C), the last corner held, or, with idle_exit_s, once odometry has stopped
   // coming for that long; exit status 0 when the square was flown
   ros::CallbackQueue& queue = *ros::getGlobalCallbackQueue();
   while (ros::ok()) {
     queue.callAvailable(ros::WallDuration(0.01));
-    if (idle_exit_s > 0.0 && square.last_odometry() &&
-        (ros::WallTime::now() - *square.last_odometry()).toSec() > idle_exit_s) {
+    // idle since the last odometry, or since the start when none came (a run that ended before)
+    const ros::WallTime since = square.last_odometry() ? *square.last_odometry() : started;
+    if (idle_exit_s > 0.0 && (ros::WallTime::now() - since).toSec() > idle_exit_s) {
       break;
     }
   }
