@@ -20,6 +20,7 @@
 #include <random>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 
 #include "bridge/config.h"
@@ -175,9 +176,15 @@ SweepOutcome ReadOutcome(const SweepRun& run, const fs::path& run_dir) {
   return outcome;
 }
 
+// The folder is made if missing: a Slurm task killed between clearing its run's folder and making it anew
+// leaves none, and the sweep then records that run's failure there.
 void WriteJsonAtomically(const fs::path& path, const nlohmann::json& json) {
+  fs::create_directories(path.parent_path());
   const fs::path part = path.string() + ".part";
-  std::ofstream(part) << json.dump(2) << "\n";
+  std::ofstream out(part);
+  out << json.dump(2) << "\n";
+  out.close();
+  if (!out) throw std::runtime_error("cannot write " + part.string() + ": " + std::strerror(errno));
   fs::rename(part, path);
 }
 
