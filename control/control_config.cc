@@ -1,6 +1,7 @@
 #include "control/control_config.h"
 
 #include <cmath>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -115,19 +116,29 @@ DirectWrenchConfig ReadDirectWrenchConfig(bridge::YamlMap& params) {
   OptionalDiagonal(wrench_gains, "ki", &config.wrench_gains.ki);
   OptionalDiagonal(wrench_gains, "kd", &config.wrench_gains.kd);
   OptionalDiagonal(wrench_gains, "integral_limit", &config.wrench_gains.integral_limit);
-  wrench_gains.OptionalInRange("derivative_time_constant_s", &config.wrench_gains.derivative_time_constant_s, 1e-4,
-                               10.0);
+  wrench_gains.OptionalInRange("derivative_time_constant_s", &config.wrench_gains.derivative_time_constant_s,
+                               1e-4, 10.0);
   wrench_gains.Finish();
 
   Eigen::Vector3d force_N = config.command_wrench_P.head<3>(), torque_Nm = config.command_wrench_P.tail<3>();
   OptionalNumbers<3>(map, "command_force_N", &force_N, "3 numbers [x, y, z] in the platform frame", false);
-  OptionalNumbers<3>(map, "command_torque_Nm", &torque_Nm, "3 numbers [x, y, z] in the platform frame", false);
+  OptionalNumbers<3>(map, "command_torque_Nm", &torque_Nm, "3 numbers [x, y, z] in the platform frame",
+                     false);
   config.command_wrench_P << force_N, torque_Nm;
   map.OptionalInRange("command_ramp_s", &config.command_ramp_s, 0.0, 600.0);
 
   bridge::YamlMap trigger = map.Map("trigger");
   trigger.OptionalInRange("force_threshold_N", &config.trigger.force_threshold_N, 0.0, 1000.0);
   trigger.OptionalInRange("hold_s", &config.trigger.hold_s, 0.0, 60.0);
+  trigger.OptionalInRange("release_threshold_N", &config.trigger.release_threshold_N, 0.0, 1000.0);
+  trigger.OptionalInRange("release_hold_s", &config.trigger.release_hold_s, 0.0, 60.0);
+  if (config.trigger.release_threshold_N > 0.0 &&
+      config.trigger.release_threshold_N >= config.trigger.force_threshold_N) {
+    std::ostringstream what;
+    what << "must be below force_threshold_N (" << config.trigger.force_threshold_N
+         << " N) or 0 (never release), got " << config.trigger.release_threshold_N;
+    trigger.Fail("release_threshold_N", what.str());
+  }
   trigger.Finish();
   map.Finish();
   return config;

@@ -30,8 +30,9 @@
 //                                     step that of the state it was computed from)
 //               /<vehicle>/setpoint   iapsim_msgs/Setpoint   (track: the reference of that command)
 //               /<vehicle>/wrench/command  geometry_msgs/WrenchStamped (track: U, in P about its origin)
-//               /<vehicle>/wrench/target   geometry_msgs/WrenchStamped (direct_wrench, once engaged: the
-//                                          wrench command of that step, in P about its origin)
+//               /<vehicle>/wrench/target   geometry_msgs/WrenchStamped (direct_wrench, while engaged: the
+//                                          wrench command of that step, in P about its origin; none while
+//                                          released after a lost contact)
 
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/WrenchStamped.h>
@@ -43,6 +44,7 @@
 
 #include <cmath>
 #include <optional>
+#include <vector>
 
 #include "bridge/eigen_msgs.h"
 #include "bridge/process.h"
@@ -268,6 +270,7 @@ class ControlNode : public bridge::Process {
     if (wrench_controller_) {
       (*report)["engaged"] = wrench_controller_->engaged();
       if (engaged_at_s_) (*report)["engaged_at_s"] = *engaged_at_s_;
+      (*report)["released_at_s"] = released_at_s_;  // each time the contact was lost and (21) let go
     }
     if (commanded_) {
       (*report)["rejected_references"] = rejected_references_;
@@ -316,10 +319,17 @@ class ControlNode : public bridge::Process {
       reference = admittance_->Update(nominal, WrenchInW(state.q_WP, wrench_P_));
       controller_->Update(reference, state, wrench_P_, period_s_);
     } else if (wrench_controller_) {
+      const uint64_t releases = wrench_controller_->releases();
       wrench_controller_->Update(reference, state, wrench_P_);
       if (wrench_controller_->engaged()) {
         if (!engaged_at_s_) engaged_at_s_ = t_s;
         PublishWrench("/wrench/target", wrench_controller_->command_wrench_P());
+      } else if (wrench_controller_->releases() != releases) {
+        released_at_s_.push_back(t_s);
+        spdlog::info(
+            "contact lost at {:.3f} s: the direct wrench controller hands back to the pose "
+            "controller until the contact is re-established",
+            t_s);
       }
     } else {
       controller_->Update(reference, state, Vector6d::Zero(), period_s_);
@@ -406,6 +416,7 @@ class ControlNode : public bridge::Process {
   int64_t wrench_stamp_ns_ = -1;
   uint64_t stale_wrench_updates_ = 0;
   std::optional<double> engaged_at_s_;
+  std::vector<double> released_at_s_;
   double period_s_ = 0.005;
   bridge::Bus* bus_ = nullptr;
   // what has arrived over the sensor link

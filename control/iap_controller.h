@@ -41,9 +41,9 @@ struct AttitudeCommand {
 
 struct ControlOutput {
   std::vector<AttitudeCommand> sub_aircraft;
-  Vector6d wrench_P = Vector6d::Zero();           // U asked by the tracker (P, about P's origin)
-  Eigen::VectorXd thrusts_P_N;                    // Λ after the limits, 3n, in P
-  bool saturated = false;                         // some of U was given up to fit the limits
+  Vector6d wrench_P = Vector6d::Zero();                       // U asked by the tracker (P, about P's origin)
+  Eigen::VectorXd thrusts_P_N;                                // Λ after the limits, 3n, in P
+  bool saturated = false;                                     // some of U was given up to fit the limits
   std::array<double, kWrenchParts> kept{1.0, 1.0, 1.0, 1.0};  // of each WrenchPart, the share realised
 };
 
@@ -58,6 +58,7 @@ class IapController {
 
   const ControlOutput& output() const { return output_; }
   const Tracker& tracker() const { return tracker_; }
+  void ResetIntegral() { tracker_.Reset(); }
   uint64_t rejected_updates() const { return rejected_; }
   uint64_t saturated_updates() const { return saturated_; }
   /// Per WrenchPart, the updates where graceful allocation gave up some of it.

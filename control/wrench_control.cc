@@ -63,9 +63,30 @@ bool DirectWrenchController::Update(const PoseReference& reference, const Platfo
                                     const Vector6d& measured_wrench_P) {
   if (!measured_wrench_P.allFinite()) return false;
   if (engaged_) {
+    const double progress_before = RampProgress();
     ramp_elapsed_s_ += dt_s_;
-    const Vector6d w_P = pid_.Update(measured_wrench_P, command_wrench_P(), !direct_.output().saturated);
-    return direct_.Update(reference, state, w_P, dt_s_);
+    if (releases_ > 0) {  // engaged again: the wrench integral moves back to where (21) left it
+      pid_.SetIntegralTerm(pid_.integral_term() + (RampProgress() - progress_before) * integral_restore_P_);
+    }
+    // on the measurement itself, not the PID's further low-pass: every 50 ms of (21) pushing on nothing
+    // turns the IAP (its yaw moment balanced the contact's); the integral holds while the contact seems lost
+    const bool lost = measured_wrench_P.head<3>().norm() < config_.trigger.release_threshold_N;
+    lost_s_ = lost ? lost_s_ + dt_s_ : 0.0;
+    const Vector6d w_P =
+        pid_.Update(measured_wrench_P, command_wrench_P(), !direct_.output().saturated && !lost);
+    if (!lost || lost_s_ < config_.trigger.release_hold_s)
+      return direct_.Update(reference, state, w_P, dt_s_);
+    // released: the baseline resumes with the integral it had when it last flew free, its estimate of the
+    // static disturbance without the contact (wind, model mismatch). (21)'s wrench integral, which holds
+    // the push that balanced the contact, is kept for the next engagement: its loop (k_w^I 0.1/s) takes
+    // some 40 s to build it up again from the bumpless value
+    released_integral_P_ = pid_.integral_term();
+    pid_.SetIntegralTerm(Vector6d::Zero());  // the next switch starts it as the first did
+    engaged_ = false;
+    ++releases_;
+    contact_s_ = 0.0;
+    lost_s_ = 0.0;
+    return baseline_.Update(reference, state, Vector6d::Zero(), dt_s_);
   }
 
   // approach: (10) without the F_e term (zero in free flight; fed back at the first touch it would only
@@ -85,20 +106,26 @@ bool DirectWrenchController::Update(const PoseReference& reference, const Platfo
   // into the wall long after the impact.
   ramp_start_P_ = measured_wrench_P;
   ramp_elapsed_s_ = 0.0;
+  direct_.ResetIntegral();  // each engagement starts (21) as the first does (it is zero then)
   const Vector6d wrench_damping_P = w0_P - config_.wrench_gains.kp.cwiseProduct(pid_.error_P());
   direct_.Update(reference, state, wrench_damping_P, 0.0);
   const Vector6d damping_step_P = kd_step_.cwiseProduct(direct_.tracker().error().e_xi);
   pid_.SetIntegralTerm(direct_.output().wrench_P - baseline_.output().wrench_P + damping_step_P +
                        wrench_damping_P);
+  // engaged again after a lost contact: over the command's ramp the integral moves on from the bumpless
+  // value to where (21) left it, so U stays continuous and (21) is back where it was once the ramp is done
+  integral_restore_P_ = released_integral_P_ - pid_.integral_term();
   engaged_ = true;
   return direct_.Update(reference, state, wrench_damping_P + pid_.integral_term(), dt_s_);
 }
 
+double DirectWrenchController::RampProgress() const {
+  return config_.command_ramp_s > 0.0 ? std::min(1.0, ramp_elapsed_s_ / config_.command_ramp_s) : 1.0;
+}
+
 Vector6d DirectWrenchController::command_wrench_P() const {
   if (!engaged_) return config_.command_wrench_P;
-  const double progress =
-      config_.command_ramp_s > 0.0 ? std::min(1.0, ramp_elapsed_s_ / config_.command_ramp_s) : 1.0;
-  return ramp_start_P_ + progress * (config_.command_wrench_P - ramp_start_P_);
+  return ramp_start_P_ + RampProgress() * (config_.command_wrench_P - ramp_start_P_);
 }
 
 }  // namespace iapsim::control

@@ -33,10 +33,18 @@ struct WrenchPidGains {
   double derivative_time_constant_s = 0.05;
 };
 
-/// When contact counts as established: the low-passed contact force above the threshold for the hold time.
+/// When contact counts as established: the low-passed contact force above the threshold for the hold time;
+/// and when as lost: the measured force (already low-passed by the sensor, §VI-E) below the release
+/// threshold (under the trigger's, so the two do not chatter) for the release hold time.
 struct ContactTrigger {
   double force_threshold_N = 0.5;
   double hold_s = 0.1;
+  /// 0: never released, (21) stays engaged once engaged as the seed flies it. In still air the seed's wall
+  /// push never comes near it (its low-passed force stays above 0.9 N once engaged); in wind a gust can
+  /// break the contact, and then (21)'s wrench error, all of F̄_e with nothing to push on, drives the IAP
+  /// along the wall and turns it (issue 19: 9 of 10 realistic draws lost the wall that way).
+  double release_threshold_N = 0.25;
+  double release_hold_s = 0.1;
 };
 
 struct DirectWrenchConfig {
@@ -94,34 +102,44 @@ Vector6d WrenchInW(const Eigen::Quaterniond& q_WP, const Vector6d& wrench_P);
 /// The wall-push controller of §VI-F: the baseline (10) with Table II gains and F_e = 0 while it
 /// approaches, then, once the trigger holds, (21) with Table V gains and the wrench PID. At the switch the
 /// wrench integral is set so that U continues where the baseline left it (bumpless transfer), and the
-/// command ramps from the wrench measured then to F̄_e.
+/// command ramps from the wrench measured then to F̄_e. When the contact is lost (the trigger's release)
+/// the baseline takes over again and flies the pose reference, which lies beyond the contact surface, until
+/// the trigger holds again: a contact-state machine approach → push → approach … as a real contact task
+/// in wind needs. Engaged again, the wrench integral returns to where (21) left it over the ramp.
 class DirectWrenchController {
  public:
   DirectWrenchController(const model::Vehicle& vehicle, const IapControllerConfig& baseline,
                          const DirectWrenchConfig& config, double dt_s);
 
-  /// One control step at the fixed dt_s. Once engaged it stays engaged. measured_wrench_P: the (filtered)
-  /// contact wrench on the platform, in P about its origin. Returns false for non-finite inputs (the last
-  /// safe output is kept).
+  /// One control step at the fixed dt_s. measured_wrench_P: the (filtered) contact wrench on the platform,
+  /// in P about its origin. Returns false for non-finite inputs (the last safe output is kept).
   bool Update(const PoseReference& reference, const PlatformState& state, const Vector6d& measured_wrench_P);
 
   const ControlOutput& output() const { return engaged_ ? direct_.output() : baseline_.output(); }
   bool engaged() const { return engaged_; }
+  /// How often (21) was released after losing the contact.
+  uint64_t releases() const { return releases_; }
   /// The wrench command of this instant: F̄_e before the switch and after the ramp, in P.
   Vector6d command_wrench_P() const;
   const WrenchPid& wrench_pid() const { return pid_; }
   const IapController& active_controller() const { return engaged_ ? direct_ : baseline_; }
 
  private:
+  double RampProgress() const;  // of the ramp after the last switch, 0 … 1
+
   IapController baseline_;
   IapController direct_;
   WrenchPid pid_;
   DirectWrenchConfig config_;
   Vector6d kd_step_;  // k^D of (21) minus the baseline's: the damping left out of the bumpless transfer
   double dt_s_;
-  double contact_s_ = 0.0;                    // how long the filtered force has stayed above the threshold
+  double contact_s_ = 0.0;  // how long the filtered force has stayed above the threshold
+  double lost_s_ = 0.0;     // engaged: how long it has stayed below the release threshold
+  uint64_t releases_ = 0;
   Vector6d ramp_start_P_ = Vector6d::Zero();  // the wrench measured at the switch
   double ramp_elapsed_s_ = 0.0;
+  Vector6d released_integral_P_ = Vector6d::Zero();  // the wrench integral when (21) last let go
+  Vector6d integral_restore_P_ = Vector6d::Zero();   // what the ramp adds to it after engaging again
   bool engaged_ = false;
 };
 

@@ -44,7 +44,8 @@ double PushAgainstWall(double command_N, bool literal, double duration_s, double
 TEST(WrenchPid, TheContactWrenchReachesTheCommandInItsDirection) {
   double max_force_N = 0.0;
   const double force_N = PushAgainstWall(1.5, false, 120.0, &max_force_N);
-  std::printf("wall push, implemented sign: F_e,x = %.4f N for 1.5 N commanded (max %.3f N)\n", force_N, max_force_N);
+  std::printf("wall push, implemented sign: F_e,x = %.4f N for 1.5 N commanded (max %.3f N)\n", force_N,
+              max_force_N);
   EXPECT_NEAR(force_N, 1.5, 0.015);
   EXPECT_LT(max_force_N, 4.0);  // the first touch overshoots
   // taken literally, (21) backs the IAP off the wall (a command it feels too little of raises U_x)
@@ -133,8 +134,9 @@ TEST(DirectWrenchController, SwitchesOnContactWithUContinuousUpToTheDampingStep)
     previous_U = U;
   }
   // the filtered force needs a few steps to pass 0.5 N, then the hold
-  std::printf("engaged at step %d; change of U per step: %.2e before, %.2e at the switch, at most %.4f after\n",
-              switched_at, change_before, switch_jump.norm(), max_change_after);
+  std::printf(
+      "engaged at step %d; change of U per step: %.2e before, %.2e at the switch, at most %.4f after\n",
+      switched_at, change_before, switch_jump.norm(), max_change_after);
   EXPECT_GT(switched_at, 40 + 1.0 / kControlStep_s - 1);
   EXPECT_LT(switched_at, 40 + 1.0 / kControlStep_s + 10);
   // what the switch would cost without the transfer: Table V's (21) from a zero wrench integral
@@ -162,11 +164,97 @@ TEST(DirectWrenchController, SwitchesOnContactWithUContinuousUpToTheDampingStep)
   EXPECT_LT((controller.command_wrench_P() - config.command_wrench_P).norm(), 1e-12);
 }
 
+TEST(DirectWrenchController, ReleasesOnALostContactToTheBaselineAsItLastFlewAndEngagesAgain) {
+  const model::Vehicle vehicle =
+      model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star.yaml");
+  DirectWrenchConfig config;
+  config.command_wrench_P << 1.5, 4, 0, 0, 0, -4;
+  config.trigger.hold_s = 1.0;  // the PID's filter has settled at each switch: no wrench damping step
+  DirectWrenchController controller(vehicle, IapControllerConfig(), config, kControlStep_s);
+  // the baseline alone, fed what the controller's baseline sees while it approaches
+  IapController baseline(vehicle, IapControllerConfig());
+  PoseReference reference;
+  reference.p_WP_m << -0.1, 0.05, -2.0;
+  PlatformState state;
+  state.p_WP_m << 0.0, 0.0, -2.0;
+  const Vector6d contact_P = (Vector6d() << 1.0, 0.5, 0.0, 0.0, 0.0, -0.5).finished();
+  int k = 0;
+  for (; !controller.engaged(); ++k) {
+    ASSERT_LT(k, 400);
+    ASSERT_TRUE(controller.Update(reference, state, k >= 20 ? contact_P : Vector6d::Zero()));
+    baseline.Update(reference, state, Vector6d::Zero(), kControlStep_s);  // the switch's step too
+  }
+  // pushing on: a brief drop of the force (0.075 s, shorter than the release hold) does not release
+  for (int j = 0; j < 400; ++j) {
+    ASSERT_TRUE(controller.Update(reference, state, j >= 100 && j < 115 ? Vector6d::Zero() : contact_P));
+  }
+  EXPECT_TRUE(controller.engaged());
+  const Vector6d pushing_integral = controller.wrench_pid().integral_term();
+  // the contact is gone: released once the hold (0.1 s) has passed, the wrench integral held meanwhile
+  int released_after = -1;
+  for (int j = 0; j < 200 && released_after < 0; ++j) {
+    ASSERT_TRUE(controller.Update(reference, state, Vector6d::Zero()));
+    if (!controller.engaged()) released_after = j + 1;
+  }
+  std::printf("released %d steps after the contact was lost\n", released_after);
+  EXPECT_NEAR(released_after * kControlStep_s, config.trigger.release_hold_s, 0.006);
+  EXPECT_EQ(controller.releases(), 1u);
+  EXPECT_EQ(controller.wrench_pid().integral_term(), Vector6d::Zero());  // kept aside for the next push
+  // the baseline takes over with the integral it had at the switch: U is the lone baseline's next step,
+  // without the push
+  baseline.Update(reference, state, Vector6d::Zero(), kControlStep_s);
+  EXPECT_LT((controller.output().wrench_P - baseline.output().wrench_P).norm(), 1e-12);
+  // touching again: engaged after the trigger's hold, the command ramping anew from the measured wrench
+  // and (21)'s motion integral started afresh
+  int engaged_after = -1;
+  Vector6d jump = Vector6d::Zero();
+  for (int j = 0; j < 400 && engaged_after < 0; ++j) {
+    const Vector6d before = controller.output().wrench_P;
+    ASSERT_TRUE(controller.Update(reference, state, contact_P));
+    if (controller.engaged()) engaged_after = j + 1;
+    jump = controller.output().wrench_P - before;
+  }
+  EXPECT_GT(engaged_after * kControlStep_s, config.trigger.hold_s);
+  EXPECT_LT(engaged_after * kControlStep_s, config.trigger.hold_s + 0.05);
+  EXPECT_LT((controller.command_wrench_P() - contact_P).norm(), 1e-12);
+  const Vector6d one_step = controller.active_controller().tracker().error().e_T * kControlStep_s;
+  EXPECT_LT((controller.active_controller().tracker().integral() - one_step).norm(), 1e-12);
+  EXPECT_EQ(controller.releases(), 1u);
+  // bumpless again (the state is at rest: no damping step), while the integral is to go back to where
+  // (21) left it over the command's ramp: with the measurement following the command, nothing else is
+  // integrated
+  std::printf("U jumps by %.2e at the second switch\n", jump.norm());
+  EXPECT_LT(jump.norm(), 0.01);
+  EXPECT_GT((controller.wrench_pid().integral_term() - pushing_integral).norm(), 0.1);
+  for (int j = 0; j * kControlStep_s <= config.command_ramp_s; ++j) {
+    ASSERT_TRUE(controller.Update(reference, state, controller.command_wrench_P()));
+  }
+  EXPECT_LT((controller.wrench_pid().integral_term() - pushing_integral).norm(), 5e-3);
+}
+
+TEST(DirectWrenchController, WithAZeroReleaseThresholdStaysEngagedAsTheSeedFliesIt) {
+  const model::Vehicle vehicle =
+      model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star.yaml");
+  DirectWrenchConfig config;
+  config.command_wrench_P << 1.5, 4, 0, 0, 0, -4;
+  config.trigger.release_threshold_N = 0.0;
+  DirectWrenchController controller(vehicle, IapControllerConfig(), config, kControlStep_s);
+  PoseReference reference;
+  PlatformState state;
+  const Vector6d contact_P = (Vector6d() << 1.0, 0.5, 0.0, 0.0, 0.0, -0.5).finished();
+  for (int k = 0; k < 100; ++k) ASSERT_TRUE(controller.Update(reference, state, contact_P));
+  ASSERT_TRUE(controller.engaged());
+  for (int k = 0; k < 1000; ++k) ASSERT_TRUE(controller.Update(reference, state, Vector6d::Zero()));
+  EXPECT_TRUE(controller.engaged());
+  EXPECT_EQ(controller.releases(), 0u);
+}
+
 TEST(DirectWrenchController, ReadsItsSection) {
   bridge::YamlMap params(
-      YAML::Load("wrench_control: {command_force_N: [1.5, 4, 0], command_torque_Nm: [0, 0, -4],\n"
-                 "  gains: {kp: [1, 2, 3, 4, 5, 6]}, wrench_gains: {ki: [0, 0, 0, 0, 0, 1]},\n"
-                 "  trigger: {force_threshold_N: 0.8, hold_s: 0.3}}"),
+      YAML::Load(
+          "wrench_control: {command_force_N: [1.5, 4, 0], command_torque_Nm: [0, 0, -4],\n"
+          "  gains: {kp: [1, 2, 3, 4, 5, 6]}, wrench_gains: {ki: [0, 0, 0, 0, 0, 1]},\n"
+          "  trigger: {force_threshold_N: 0.8, hold_s: 0.3, release_threshold_N: 0.4, release_hold_s: 0.5}}"),
       "s.yaml");
   const DirectWrenchConfig config = ReadDirectWrenchConfig(params);
   EXPECT_TRUE(config.command_wrench_P.isApprox((Vector6d() << 1.5, 4, 0, 0, 0, -4).finished()));
@@ -175,8 +263,20 @@ TEST(DirectWrenchController, ReadsItsSection) {
   EXPECT_EQ(config.wrench_gains.ki[5], 1.0);
   EXPECT_EQ(config.wrench_gains.kd[0], 2.0);
   EXPECT_EQ(config.trigger.hold_s, 0.3);
+  EXPECT_EQ(config.trigger.release_threshold_N, 0.4);
+  EXPECT_EQ(config.trigger.release_hold_s, 0.5);
   bridge::YamlMap bad(YAML::Load("wrench_control: {command_force_N: [1, 2]}"), "s.yaml");
   EXPECT_THROW(ReadDirectWrenchConfig(bad), bridge::ConfigError);
+  // a release threshold at or above the trigger's would release and engage on the same force
+  bridge::YamlMap chattering(YAML::Load("wrench_control: {trigger: {release_threshold_N: 0.5}}"), "s.yaml");
+  try {
+    ReadDirectWrenchConfig(chattering);
+    ADD_FAILURE() << "a release threshold equal to the trigger's was accepted";
+  } catch (const bridge::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("wrench_control.trigger.release_threshold_N"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("force_threshold_N"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

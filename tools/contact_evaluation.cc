@@ -249,6 +249,15 @@ nlohmann::json EvaluateContact(const std::string& run_dir, const bridge::BagRead
     const Vector6d command = targets.rbegin()->second;
     const double engaged_at_s = static_cast<double>(targets.begin()->first - t0_ns) * 1e-9;
     contact["engaged_at_s"] = engaged_at_s;
+    // (21) publishes its target only while engaged: each start of a run of targets is an engagement, the
+    // first at the first contact and one more after each contact lost and found again
+    int engagements = 0;
+    for (size_t i = 0; i < samples.size(); ++i) {
+      if (std::isfinite(samples[i].target[0]) && (i == 0 || !std::isfinite(samples[i - 1].target[0]))) {
+        ++engagements;
+      }
+    }
+    contact["engagements"] = engagements;
     contact["command_wrench_P"] = AxesJson(kWrenchAxes, command);
     const Vector6d wrench_error = steady_filtered - command;
     Vector6d relative = Vector6d::Constant(kNaN), settling = Vector6d::Constant(kNaN);
@@ -317,7 +326,10 @@ void PrintContact(const nlohmann::json& contact) {
   axes(contact["settling_time_s"], kWrenchAxes, "  %s %7.2f");
   std::printf("    steady pose error     ");
   axes(contact["steady_pose_error"], kPoseAxes, "  %s %7.3f");
-  std::printf("    (21) engaged at %.2f s\n", contact["engaged_at_s"].get<double>());
+  const int engagements = contact["engagements"].get<int>();
+  std::printf("    (21) engaged at %.2f s", contact["engaged_at_s"].get<double>());
+  if (engagements > 1) std::printf("; the contact was lost and (21) engaged again %d times", engagements - 1);
+  std::printf("\n");
 }
 
 }  // namespace iapsim::tools

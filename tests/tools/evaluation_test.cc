@@ -160,7 +160,8 @@ TEST_F(RecordingTest, ContactMetricsOfAKnownWallPush) {
     State(stamp, Eigen::Vector3d(1.01, -0.02, -2.0), Eigen::Vector3d::Zero(), {false}, raw);
     Setpoint(stamp, Eigen::Vector3d(1.0, 0.0, -2.0), Eigen::Vector3d::Zero());
     Wrench("/iap/wrench/filtered", stamp, filtered);
-    if (k >= 20) Wrench("/iap/wrench/target", stamp, command);
+    const bool released = k >= 152 && k < 160;  // (21) let go during the break and engaged again
+    if (k >= 20 && !released) Wrench("/iap/wrench/target", stamp, command);
   }
   ContactEvaluation evaluation;
   evaluation.plots = false;
@@ -171,6 +172,7 @@ TEST_F(RecordingTest, ContactMetricsOfAKnownWallPush) {
   EXPECT_NEAR(contact["max_raw_force_N"].get<double>(), std::hypot(1.0, 50.0), 1e-9);
   EXPECT_NEAR(contact["max_raw_force_at_s"].get<double>(), 2.5, 1e-9);
   EXPECT_NEAR(contact["engaged_at_s"].get<double>(), 2.0, 1e-9);
+  EXPECT_EQ(contact["engagements"].get<int>(), 2);
   // the window [10, 20] s holds 101 samples, 10 of them without contact
   const double touching = 91.0 / 101.0;
   EXPECT_NEAR(contact["contact_fraction"].get<double>(), touching, 1e-12);
