@@ -63,10 +63,11 @@ bool DirectWrenchController::Update(const PoseReference& reference, const Platfo
                                     const Vector6d& measured_wrench_P) {
   if (!measured_wrench_P.allFinite()) return false;
   if (engaged_) {
-    const double progress_before = RampProgress();
     ramp_elapsed_s_ += dt_s_;
-    if (releases_ > 0) {  // engaged again: the wrench integral moves back to where (21) left it
-      pid_.SetIntegralTerm(pid_.integral_term() + (RampProgress() - progress_before) * integral_restore_P_);
+    if (restored_ < 1.0) {  // engaged again: the wrench integral moves back to where (21) left it
+      const double progress = RampProgress();
+      pid_.SetIntegralTerm(pid_.integral_term() + (progress - restored_) * integral_restore_P_);
+      restored_ = progress;
     }
     // on the measurement itself, not the PID's further low-pass: every 50 ms of (21) pushing on nothing
     // turns the IAP (its yaw moment balanced the contact's); the integral holds while the contact seems lost
@@ -115,6 +116,7 @@ bool DirectWrenchController::Update(const PoseReference& reference, const Platfo
   // engaged again after a lost contact: over the command's ramp the integral moves on from the bumpless
   // value to where (21) left it, so U stays continuous and (21) is back where it was once the ramp is done
   integral_restore_P_ = released_integral_P_ - pid_.integral_term();
+  restored_ = releases_ > 0 ? 0.0 : 1.0;
   engaged_ = true;
   return direct_.Update(reference, state, wrench_damping_P + pid_.integral_term(), dt_s_);
 }

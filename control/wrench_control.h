@@ -140,6 +140,7 @@ class DirectWrenchController {
   double ramp_elapsed_s_ = 0.0;
   Vector6d released_integral_P_ = Vector6d::Zero();  // the wrench integral when (21) last let go
   Vector6d integral_restore_P_ = Vector6d::Zero();   // what the ramp adds to it after engaging again
+  double restored_ = 1.0;                            // the share of it added so far
   bool engaged_ = false;
 };
 

@@ -232,6 +232,32 @@ TEST(DirectWrenchController, ReleasesOnALostContactToTheBaselineAsItLastFlewAndE
   EXPECT_LT((controller.wrench_pid().integral_term() - pushing_integral).norm(), 5e-3);
 }
 
+TEST(DirectWrenchController, WithoutARampTheIntegralReturnsAtOnce) {
+  const model::Vehicle vehicle =
+      model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star.yaml");
+  DirectWrenchConfig config;
+  config.command_wrench_P << 1.5, 4, 0, 0, 0, -4;
+  config.command_ramp_s = 0.0;
+  DirectWrenchController controller(vehicle, IapControllerConfig(), config, kControlStep_s);
+  PoseReference reference;
+  PlatformState state;
+  const Vector6d contact_P = (Vector6d() << 1.0, 0.5, 0.0, 0.0, 0.0, -0.5).finished();
+  for (int k = 0; k < 400; ++k) ASSERT_TRUE(controller.Update(reference, state, contact_P));
+  ASSERT_TRUE(controller.engaged());
+  const Vector6d pushing_integral = controller.wrench_pid().integral_term();
+  for (int k = 0; k < 40; ++k) ASSERT_TRUE(controller.Update(reference, state, Vector6d::Zero()));
+  ASSERT_EQ(controller.releases(), 1u);
+  int k = 0;
+  for (; !controller.engaged(); ++k) {
+    ASSERT_LT(k, 100);
+    ASSERT_TRUE(controller.Update(reference, state, contact_P));
+  }
+  // bumpless at the switch, then all of it back on the next step (one step of k_w^I e_w dt aside)
+  ASSERT_TRUE(controller.Update(reference, state, contact_P));
+  EXPECT_GT(pushing_integral.norm(), 0.1);
+  EXPECT_LT((controller.wrench_pid().integral_term() - pushing_integral).norm(), 0.01);
+}
+
 TEST(DirectWrenchController, WithAZeroReleaseThresholdStaysEngagedAsTheSeedFliesIt) {
   const model::Vehicle vehicle =
       model::LoadVehicle(std::string(IAPSIM_SOURCE_DIR) + "/configs/vehicles/three_star.yaml");

@@ -328,7 +328,7 @@ void PrintContact(const nlohmann::json& contact) {
   axes(contact["steady_pose_error"], kPoseAxes, "  %s %7.3f");
   const int engagements = contact["engagements"].get<int>();
   std::printf("    (21) engaged at %.2f s", contact["engaged_at_s"].get<double>());
-  if (engagements > 1) std::printf("; the contact was lost and (21) engaged again %d times", engagements - 1);
+  if (engagements > 1) std::printf("; engaged %d times in all (the contact lost and found again)", engagements);
   std::printf("\n");
 }
 

@@ -371,9 +371,10 @@ struct Estimator::Impl {
     drift_centre[peer] = centre;
   }
 
-  // r_kp and r_kv of every window frame with each peer that shared its joint then, and each such peer's
-  // drift prior; the peers they involve are marked in `used`. Not marginalised: they tie the window to the
-  // other's drift, whose memory from one solve to the next is the continuous prior.
+  // r_kp and r_kv of every window frame with each peer that shared its joint then (counted in
+  // statistics.kinematic_constraints), and each such peer's drift prior; the peers they involve are marked
+  // in `used`. Not marginalised: they tie the window to the other's drift, whose memory from one solve to
+  // the next is the continuous prior.
   std::vector<Residual> PhysicalResiduals(std::vector<bool>* used) {
     std::vector<Residual> residuals;
     const PhysicalConstraintOptions& o = options.physical;
@@ -389,6 +390,7 @@ struct Estimator::Impl {
                                                o.link_lengths_m[peer], o.sigma_link_m, o.sigma_rate_radps),
              kinematic_loss.get(),
              {frame->pose.data(), frame->speed_bias.data(), drift[peer].data()}});
+        ++statistics.kinematic_constraints;
         (*used)[peer] = true;
       }
       if (!(*used)[peer]) continue;
@@ -430,10 +432,7 @@ struct Estimator::Impl {
     RepropagateWhereBiasesMoved();
     std::vector<Residual> residuals = Residuals(false);
     std::vector<bool> peers_used;
-    for (Residual& r : PhysicalResiduals(&peers_used)) {
-      statistics.kinematic_constraints += r.cost->num_residuals() == 2;
-      residuals.push_back(std::move(r));
-    }
+    for (Residual& r : PhysicalResiduals(&peers_used)) residuals.push_back(std::move(r));
     for (const auto& frame : window) statistics.attitude_constraints += frame->attitude_WI.has_value();
     ceres::Problem::Options problem_options;
     problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
