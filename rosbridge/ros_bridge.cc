@@ -16,6 +16,7 @@
 #include <fstream>
 #include <optional>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include "bridge/eigen_msgs.h"
@@ -203,12 +204,11 @@ class RosBridge : public bridge::Process {
     for (const FromRos& f : from_ros_) {
       const double longest_s = std::min(context.self.hang_timeout_s, context.scenario.clock.ack_timeout_s);
       if (f.question && mode_ == bridge::ClockMode::kLockstep && longest_s <= f.answer_timeout_s) {
-        params.Fail("from_ros",
-                    "lockstep waits up to answer_timeout_s (" + std::to_string(f.answer_timeout_s) +
-                        " s) for " + f.ros_topic +
-                        ": give clock.ack_timeout_s and this process's hang_timeout_s more (they are " +
-                        std::to_string(context.scenario.clock.ack_timeout_s) + " and " +
-                        std::to_string(context.self.hang_timeout_s) + " s)");
+        std::ostringstream what;
+        what << "lockstep waits up to answer_timeout_s (" << f.answer_timeout_s << " s) for " << f.ros_topic
+             << ": give clock.ack_timeout_s and this process's hang_timeout_s more (they are "
+             << context.scenario.clock.ack_timeout_s << " and " << context.self.hang_timeout_s << " s)";
+        params.Fail("from_ros", what.str());
       }
     }
     if (params.Has("tf")) ReadTf(params.Map("tf"), context.scenario);

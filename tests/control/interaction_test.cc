@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "control/admittance.h"
 #include "control/wrench_control.h"
@@ -145,10 +146,12 @@ TEST(Interaction, DirectWrenchControlPushesAWallWithTheCommandedWrench) {
 // what the realistic profile's 4 m/s wind pushes). Released on the lost contact, the baseline flies the pose
 // reference beyond the wall again, (21) engages again and holds the command; kept engaged, as the seed's
 // (21) is, its wrench error (all of F̄_e, nothing to push on) carries the IAP along the wall and turns it.
+constexpr double kNever = std::numeric_limits<double>::infinity();
+
 struct GustOutcome {
   Vector6d mean_P = Vector6d::Zero();  // the filtered wrench over the last 10 s
   double max_yaw_deg = 0.0;            // after the gust
-  double back_at_s = -1.0;             // when the filtered force is above 1 N again after the gust
+  double back_at_s = kNever;           // when the filtered force is above 1 N again after the gust
   uint64_t releases = 0;
   bool engaged_at_end = false;
 };
@@ -168,7 +171,7 @@ GustOutcome PushThroughAGust(double release_threshold_N) {
     EXPECT_TRUE(controller.Update(reference, state, iap.filtered_wrench_P()));
     const bool gust = t_s >= gust_from_s && t_s < gust_from_s + gust_s;
     iap.Step(controller.output(), gust ? Eigen::Vector3d(6.0, 0.0, 0.0) : Eigen::Vector3d::Zero());
-    if (outcome.back_at_s < 0 && t_s >= gust_from_s + gust_s &&
+    if (outcome.back_at_s == kNever && t_s >= gust_from_s + gust_s &&
         iap.filtered_wrench_P().head<3>().norm() > 1.0) {
       outcome.back_at_s = t_s;
     }
