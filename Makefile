@@ -4,7 +4,7 @@ BUILD_DIR ?= build
 SCENARIO ?= configs/regression/three_star_spiral.yaml
 CMAKE_FLAGS ?=
 
-.PHONY: deps configure build run test bench clean
+.PHONY: deps configure build run test nightly bench clean
 
 deps:
 	@tools/install-deps.sh
@@ -20,6 +20,10 @@ run: build
 
 test: build
 	@cd $(BUILD_DIR) && ctest --output-on-failure --timeout 600
+
+# flights too slow for `make test` (they render): configs/regression/slow, both profiles
+nightly: build
+	@$(BUILD_DIR)/bin/iapsim regress configs/regression/slow --out $(BUILD_DIR)/regress-slow
 
 bench: build
 	@$(BUILD_DIR)/bin/iapsim bench all

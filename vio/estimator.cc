@@ -127,7 +127,7 @@ struct Estimator::Impl {
 
   std::deque<PendingRange> pending_ranges;
   std::vector<RangeMeasurement> ranges;
-  std::deque<std::pair<double, sensors::ImuSample>> imu;
+  ImuSamples imu;
   std::shared_ptr<ImuPreintegration> since_keyframe;  ///< from the newest keyframe to the last frame
   double last_frame_t_s = -std::numeric_limits<double>::infinity();
   std::uint64_t next_serial = 0;
@@ -136,18 +136,7 @@ struct Estimator::Impl {
   EstimatorStatistics statistics;
 
   // --- IMU ---------------------------------------------------------------------------------------------
-  sensors::ImuSample SampleAt(double t) const {
-    if (t <= imu.front().first) return imu.front().second;
-    for (std::size_t k = 1; k < imu.size(); ++k) {
-      if (imu[k].first < t) continue;
-      const double a = (t - imu[k - 1].first) / (imu[k].first - imu[k - 1].first);
-      sensors::ImuSample s;
-      s.f_I_mps2 = (1.0 - a) * imu[k - 1].second.f_I_mps2 + a * imu[k].second.f_I_mps2;
-      s.w_I_radps = (1.0 - a) * imu[k - 1].second.w_I_radps + a * imu[k].second.w_I_radps;
-      return s;
-    }
-    return imu.back().second;  // held past the last sample
-  }
+  sensors::ImuSample SampleAt(double t) const { return InterpolatedSample(imu, t); }
 
   // Integrates the samples strictly between from_t and to_t, then the sample at to_t.
   void IntegrateTo(ImuPreintegration* pre, double from_t, double to_t) const {

@@ -6,6 +6,19 @@
 
 namespace iapsim::vio {
 
+sensors::ImuSample InterpolatedSample(const ImuSamples& samples, double t) {
+  if (t <= samples.front().first) return samples.front().second;
+  for (std::size_t k = 1; k < samples.size(); ++k) {
+    if (samples[k].first < t) continue;
+    const double a = (t - samples[k - 1].first) / (samples[k].first - samples[k - 1].first);
+    sensors::ImuSample s;
+    s.f_I_mps2 = (1.0 - a) * samples[k - 1].second.f_I_mps2 + a * samples[k].second.f_I_mps2;
+    s.w_I_radps = (1.0 - a) * samples[k - 1].second.w_I_radps + a * samples[k].second.w_I_radps;
+    return s;
+  }
+  return samples.back().second;
+}
+
 ImuPreintegration::ImuPreintegration(const sensors::ImuSample& first, const ImuBiases& biases,
                                      const sensors::ImuNoise& noise)
     : first_(first), noise_(noise) {

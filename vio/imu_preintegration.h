@@ -13,6 +13,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <deque>
+#include <utility>
 #include <vector>
 
 #include "sensors/imu.h"
@@ -30,6 +32,12 @@ struct ImuDelta {
 using Matrix9d = Eigen::Matrix<double, 9, 9>;
 using Vector9d = Eigen::Matrix<double, 9, 1>;
 using Matrix93d = Eigen::Matrix<double, 9, 3>;
+
+/// Timed IMU samples (t in s, increasing).
+using ImuSamples = std::deque<std::pair<double, sensors::ImuSample>>;
+/// The sample at t: interpolated linearly between the two around it, the first before them, the last held
+/// after them (an image between two samples, or after the last one). `samples` must not be empty.
+sensors::ImuSample InterpolatedSample(const ImuSamples& samples, double t);
 
 class ImuPreintegration {
  public:

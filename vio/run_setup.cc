@@ -82,6 +82,7 @@ RunSetup ReadRunSetup(const bridge::Scenario& scenario, const std::string& mode,
     sub.imu_topic = "/" + camera.mount.body + "/imu";
     sub.truth_topic = "/" + camera.mount.body + "/odom";
     sub.odometry_topic = "/" + camera.mount.body + "/vio/odom";
+    sub.propagated_odometry_topic = "/" + camera.mount.body + "/vio/imu_propagate";
     if (mode != "vio") {
       if (sensors_config.uwb.anchors.empty()) {
         fail("mode " + mode + " needs UWB anchors (processes." + sensors_process +

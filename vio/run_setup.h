@@ -37,6 +37,7 @@ struct SubAircraftSetup {
   double range_sigma_m = 0.0;
   std::string attitude_topic;              ///< virpo: the flight controller's attitude, R_WB
   std::string odometry_topic;              ///< what the vio process publishes: /<body>/vio/odom
+  std::string propagated_odometry_topic;   ///< and at the IMU's rate: /<body>/vio/imu_propagate
   std::optional<Eigen::Vector3d> joint_P;  ///< d_i, when the body is a sub-aircraft of the vehicle
 };
 

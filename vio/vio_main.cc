@@ -14,14 +14,17 @@
 //               /<vehicle>/<sub>/uwb (vio_uwb, virpo), /<vehicle>/<sub>/attitude and every other
 //               sub-aircraft's /<vehicle>/<other>/vio/odom (virpo)
 //   publishes   /<vehicle>/<sub>/vio/odom  nav_msgs/Odometry (body pose in W, twist in B), at the image stamp
+//               /<vehicle>/<sub>/vio/imu_propagate  the same, the newest frame carried by the IMU to its
+//               newest sample (vio/imu_propagator.h), at each step that has a newer sample
 //
-// Schedule: rate_hz = the camera's, `after: [render, sensors]` (a frame and its IMU arrive in the step they
-// are drawn), and in virpo `after_previous: [the other instances]`: each uses the others' odometry of the
-// frames before its own, as `iapsim vio` does, so the run is deterministic.
+// Schedule: rate_hz = the IMU's (the camera's gives only the frames), `after: [render, sensors]` (a frame
+// and its IMU arrive in the step they are drawn), and in virpo `after_previous: [the other instances]`: each
+// uses the others' odometry of the frames before its own, as `iapsim vio` does, so the run is deterministic.
 //
 // With `platform: true` (and no other params) it estimates the platform from every sub-aircraft's odometry
 // at each stamp (PlatformOdometryOf: the joints fitted rigidly) and publishes /<vehicle>/vio/odom (pose in
-// W, twist in P, the form the controller's odometry_topic reads); give it `after: [every instance]`.
+// W, twist in P, the form the controller's odometry_topic reads), and from their propagated odometry
+// /<vehicle>/vio/imu_propagate; give it `after: [every instance]` and the instances' rate.
 
 #include <iapsim_msgs/UwbRanges.h>
 #include <malloc.h>
@@ -29,6 +32,7 @@
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Imu.h>
 
+#include <cmath>
 #include <deque>
 #include <functional>
 #include <limits>
@@ -40,6 +44,7 @@
 #include "render/image.h"
 #include "vio/config.h"
 #include "vio/estimator.h"
+#include "vio/imu_propagator.h"
 #include "vio/run_setup.h"
 #include "vio/stereo_tracker.h"
 
@@ -68,7 +73,9 @@ class VioNode : public bridge::Process {
     setup_ = all;
     const SubAircraftSetup& sub = setup_.subs[self_];
     tracker_.emplace(sub.rig, config.tracker);
-    estimator_.emplace(sub.rig, EstimatorOptionsFor(setup_, self_, mode_, config));
+    const EstimatorOptions options = EstimatorOptionsFor(setup_, self_, mode_, config);
+    estimator_.emplace(sub.rig, options);
+    propagator_.emplace(options.gravity_mps2, options.imu_noise);
   }
 
   void Setup(bridge::Bus& bus) override {
@@ -82,6 +89,7 @@ class VioNode : public bridge::Process {
           sample.w_I_radps = bridge::FromMsg(m.angular_velocity);
           last_imu_t_s_ = t_s;
           inputs_.push_back([t_s, sample](Estimator& e) { e.AddImu(t_s, sample); });
+          propagator_->AddImu(t_s, sample);
         });
     for (const std::string* eye : {&sub.left_topic, &sub.right_topic}) {
       const bool left = eye == &sub.left_topic;
@@ -145,6 +153,14 @@ class VioNode : public bridge::Process {
       if (pair.Complete()) Estimate(t_ns, pair);
       pairs_.erase(pairs_.begin());
     }
+    const std::optional<vio::Estimate> latest = propagator_->Latest();
+    if (latest && latest->t_s > last_propagated_t_s_) {
+      last_propagated_t_s_ = latest->t_s;
+      const int64_t t_ns = std::llround(latest->t_s * 1e9);  // an IMU or image stamp, exact in a double
+      bus_->Publish(setup_.subs[self_].propagated_odometry_topic,
+                    OdometryOf(*latest, setup_.subs[self_], t_ns));
+      ++propagated_;
+    }
   }
 
   void Finish(nlohmann::json* report) override {
@@ -156,6 +172,7 @@ class VioNode : public bridge::Process {
     (*report)["ranges_used"] = s.ranges_used;
     (*report)["attitude_constraints"] = s.attitude_constraints;
     (*report)["kinematic_constraints"] = s.kinematic_constraints;
+    (*report)["propagated"] = propagated_;
     const double per_frame = s.frames > 0 ? 1.0 / s.frames : 0.0;
     (*report)["ms_per_frame"] = {{"solve", s.solve_ms * per_frame},
                                  {"marginalisation", s.marginalisation_ms * per_frame}};
@@ -190,7 +207,9 @@ class VioNode : public bridge::Process {
       started_ = true;
       truth_.clear();
     }
-    bus_->Publish(sub.odometry_topic, OdometryOf(estimator_->AddFrame(frame), sub, t_ns));
+    const vio::Estimate estimate = estimator_->AddFrame(frame);
+    propagator_->SetFrame(estimate);
+    bus_->Publish(sub.odometry_topic, OdometryOf(estimate, sub, t_ns));
   }
 
   std::string mode_ = "vio";
@@ -198,6 +217,7 @@ class VioNode : public bridge::Process {
   std::size_t self_ = kNone;
   std::optional<StereoTracker> tracker_;
   std::optional<Estimator> estimator_;
+  std::optional<ImuPropagator> propagator_;
   bridge::Bus* bus_ = nullptr;
   std::map<int64_t, Pair> pairs_;
   std::vector<std::function<void(Estimator&)>> inputs_;
@@ -206,6 +226,8 @@ class VioNode : public bridge::Process {
   bool started_ = false;
   double last_imu_t_s_ = -std::numeric_limits<double>::infinity();
   double last_attitude_t_s_ = -std::numeric_limits<double>::infinity();
+  double last_propagated_t_s_ = -std::numeric_limits<double>::infinity();
+  int propagated_ = 0;
 };
 
 class PlatformNode : public bridge::Process {
@@ -221,48 +243,64 @@ class PlatformNode : public bridge::Process {
       params.Fail("platform",
                   "needs a stereo camera on every sub-aircraft of vehicle '" + setup_.vehicle_name + "'");
     }
+    frames_.topic = "/" + setup_.vehicle_name + "/vio/odom";
+    propagated_.topic = "/" + setup_.vehicle_name + "/vio/imu_propagate";
   }
 
   void Setup(bridge::Bus& bus) override {
     bus_ = &bus;
     for (std::size_t i = 0; i < setup_.subs.size(); ++i) {
-      bus.Subscribe<nav_msgs::Odometry>(setup_.subs[i].odometry_topic,
-                                        [this, i](const nav_msgs::Odometry& m, const bridge::MessageInfo&) {
-                                          auto& at = odometry_[bridge::ToNanoseconds(m.header.stamp)];
-                                          at.resize(setup_.subs.size());
-                                          at[i] = m;
-                                        });
+      Subscribe(bus, setup_.subs[i].odometry_topic, i, &frames_);
+      Subscribe(bus, setup_.subs[i].propagated_odometry_topic, i, &propagated_);
     }
   }
 
   void Step(const bridge::StepInfo& step) override {
-    while (!odometry_.empty() && odometry_.begin()->first <= step.stamp_ns) {
-      std::vector<nav_msgs::Odometry> subs;
-      for (const auto& odometry : odometry_.begin()->second) {
-        if (odometry) subs.push_back(*odometry);
+    for (Stream* stream : {&frames_, &propagated_}) {
+      while (!stream->odometry.empty() && stream->odometry.begin()->first <= step.stamp_ns) {
+        std::vector<nav_msgs::Odometry> subs;
+        for (const auto& odometry : stream->odometry.begin()->second) {
+          if (odometry) subs.push_back(*odometry);
+        }
+        if (subs.size() == setup_.subs.size()) {
+          bus_->Publish(stream->topic, PlatformOdometryOf(setup_.joints_P, subs, setup_.vehicle_name));
+          ++stream->published;
+        } else {
+          ++stream->incomplete;  // a sub-aircraft had no estimate at this stamp
+        }
+        stream->odometry.erase(stream->odometry.begin());
       }
-      if (subs.size() == setup_.subs.size()) {
-        bus_->Publish("/" + setup_.vehicle_name + "/vio/odom",
-                      PlatformOdometryOf(setup_.joints_P, subs, setup_.vehicle_name));
-        ++published_;
-      } else {
-        ++incomplete_;  // a sub-aircraft had no estimate at this stamp
-      }
-      odometry_.erase(odometry_.begin());
     }
   }
 
   void Finish(nlohmann::json* report) override {
-    (*report)["published"] = published_;
-    (*report)["stamps_without_every_sub_aircraft"] = incomplete_;
+    (*report)["published"] = frames_.published;
+    (*report)["stamps_without_every_sub_aircraft"] = frames_.incomplete;
+    (*report)["imu_propagate"] = {{"published", propagated_.published},
+                                  {"stamps_without_every_sub_aircraft", propagated_.incomplete}};
   }
 
  private:
+  // the platform from one kind of the sub-aircraft's odometry: the frames' or the propagated
+  struct Stream {
+    std::string topic;                                                           // what it publishes
+    std::map<int64_t, std::vector<std::optional<nav_msgs::Odometry>>> odometry;  // stamp -> per sub
+    int published = 0;
+    int incomplete = 0;
+  };
+
+  void Subscribe(bridge::Bus& bus, const std::string& topic, std::size_t sub, Stream* stream) {
+    bus.Subscribe<nav_msgs::Odometry>(
+        topic, [this, sub, stream](const nav_msgs::Odometry& m, const bridge::MessageInfo&) {
+          auto& at = stream->odometry[bridge::ToNanoseconds(m.header.stamp)];
+          at.resize(setup_.subs.size());
+          at[sub] = m;
+        });
+  }
+
   RunSetup setup_;
   bridge::Bus* bus_ = nullptr;
-  std::map<int64_t, std::vector<std::optional<nav_msgs::Odometry>>> odometry_;
-  int published_ = 0;
-  int incomplete_ = 0;
+  Stream frames_, propagated_;
 };
 
 }  // namespace

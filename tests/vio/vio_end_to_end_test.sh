@@ -135,9 +135,29 @@ processes = json.load(open(sys.argv[1]))["processes"]
 for name in ("vio_sub1", "vio_sub2", "vio_sub3"):
     p = processes[name]["process"]
     assert p["frames"] == 31 and p["failures"] == 0 and p["kinematic_constraints"] > 0, (name, p)
+    assert p["propagated"] == 301, (name, p)  # at every IMU sample (200 Hz) from the first frame on
 platform = processes["vio_platform"]["process"]
 assert platform["published"] == 31 and platform["stamps_without_every_sub_aircraft"] == 0, platform
+assert platform["imu_propagate"] == {"published": 301, "stamps_without_every_sub_aircraft": 0}, platform
 PY
+# the propagated estimates: at every IMU sample, at a frame's stamp the frame's estimate itself, and the
+# platform's as close to the truth as the frames'
+for topic in /iap/sub1/vio /iap/vio; do
+  "$iapsim" export "$work/run/run.bag" --topic "$topic/odom" --format tum -o "$work/frames.tum" 2> /dev/null
+  "$iapsim" export "$work/run/run.bag" --topic "$topic/imu_propagate" --format tum -o "$work/propagated.tum" 2> /dev/null
+  /usr/bin/python3 - "$work/frames.tum" "$work/propagated.tum" "$work/run/metrics.json" "$topic" << 'PY' ||
+import json, sys
+read = lambda path: {line.split()[0]: line for line in open(path) if not line.startswith("#")}
+frames, propagated = read(sys.argv[1]), read(sys.argv[2])
+assert len(frames) == 31 and len(propagated) == 301, (len(frames), len(propagated))
+assert all(propagated[stamp] == line for stamp, line in frames.items()), "a frame's stamp differs"
+if sys.argv[4] == "/iap/vio":
+    odometry = json.load(open(sys.argv[3]))["odometry"]
+    carried = odometry["/iap/vio/imu_propagate"]
+    assert carried["ate"]["matched"] == 301 and carried["ate"]["rmse_m"] < 0.03, carried
+PY
+    fail "$topic/imu_propagate"
+done
 /usr/bin/python3 - "$work/virpo/vio.json" "$work/uwb/vio.json" << 'PY' || fail "virpo: $(cat "$work/virpo/vio.json")"
 import json, sys
 report, uwb = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
@@ -157,6 +177,9 @@ done
 # flying on the estimate: the scenario and every process's params are valid (the flight itself is long)
 "$iapsim" run "$src/configs/scenarios/three_star_vio_flight.yaml" --check --out "$work/flight_check" > /dev/null ||
   fail "three_star_vio_flight.yaml does not check"
+# the slow suite that flies it whole (make nightly) reads: its flights are known, an unknown one is refused
+expect_exit 2 "no flight 'none' in $src/configs/regression/slow/suite.yaml" \
+  "$iapsim" regress "$src/configs/regression/slow" --only none --out "$work/slow"
 # the manual flights (b)-(d) of Table VIII: valid, each a pilot log replayed in its scene with Table XI's anchors
 for scene in station broad_station bright_arena; do
   "$iapsim" run "$src/configs/scenarios/three_star_pilot_$scene.yaml" --check --out "$work/pilot_$scene" > /dev/null ||
