@@ -311,6 +311,16 @@ grep -q "position RMSE" "$work/evaluate.out" || fail "evaluate: $(cat "$work/eva
 for png in tracking_pose.png tracking_error.png; do
   [ -s "$work/spiral/$png" ] || fail "no $png"
 done
+# unrecorded (a timing run): no bag, so no evaluation, said so; a --video of it is refused before it flies
+"$iapsim" run "$src/configs/regression/three_star_spiral.yaml" --duration 1 --out "$work/spiral_unrecorded" \
+  --set recording.enabled=false > "$work/unrecorded.out" 2>&1 || fail "unrecorded run: $(cat "$work/unrecorded.out")"
+grep -q "evaluation is skipped: it reads the bag, and recording.enabled is false" "$work/unrecorded.out" ||
+  fail "unrecorded run: $(cat "$work/unrecorded.out")"
+[ ! -e "$work/spiral_unrecorded/run.bag" ] || fail "an unrecorded run wrote a bag"
+expect_exit 2 "--video iap: the video is made from the bag, and recording.enabled is false" "$iapsim" run \
+  "$src/configs/regression/three_star_spiral.yaml" --duration 1 --out "$work/unrecorded_video" \
+  --set recording.enabled=false --video iap
+[ ! -e "$work/unrecorded_video" ] || fail "a refused run made its directory"
 # an lz4 bag is rosbag's own compression: Debian's python rosbag reads it back message for message as the
 # uncompressed bag of the same run, and at most half its size (issue 21's target)
 "$iapsim" run "$src/configs/regression/three_star_spiral.yaml" --duration 2 --out "$work/spiral_lz4" \

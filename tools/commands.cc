@@ -55,10 +55,18 @@ std::string YamlFlowList(const std::vector<std::string>& items) {
 int Launch(const RunArgs& args, std::vector<std::string> overrides) {
   // the evaluation section is checked before the run, so a typo does not cost a flight
   RunEvaluation evaluation;
+  bool recorded = true;
   try {
-    evaluation = ReadRunEvaluation(LoadScenario(args.scenario, overrides));
+    const Scenario scenario = LoadScenario(args.scenario, overrides);
+    evaluation = ReadRunEvaluation(scenario);
+    recorded = scenario.recording.enabled;
   } catch (const ConfigError& e) {
     std::cerr << "iapsim: invalid configuration: " << e.what() << std::endl;
+    return 2;
+  }
+  if (!recorded && !args.video.empty()) {
+    std::cerr << "iapsim: --video " << args.video
+              << ": the video is made from the bag, and recording.enabled is false" << std::endl;
     return 2;
   }
   LaunchOptions options;
@@ -116,7 +124,13 @@ int Launch(const RunArgs& args, std::vector<std::string> overrides) {
                 recorder["recorded"].size(), recorder["bag_bytes"].get<double>() / (1 << 20), ratio);
   }
   std::printf("  %s/log.txt, logs/           launcher and per-process logs\n", result.run_dir.c_str());
-  EvaluateRun(result.run_dir, evaluation);
+  // the evaluation reads the bag: an unrecorded run (a timing run, say) has only the launcher's figures
+  if (recorded) {
+    EvaluateRun(result.run_dir, evaluation);
+  } else if (!evaluation.empty()) {
+    std::printf(
+        "  (the scenario's evaluation is skipped: it reads the bag, and recording.enabled is false)\n");
+  }
   if (!args.video.empty()) {
     try {
       PrintCameraVideo(WriteCameraVideo(result.run_dir + "/run.bag", args.video,
