@@ -139,6 +139,18 @@ class CulledConvexCreateFunc final : public btCollisionAlgorithmCreateFunc {
   btCollisionAlgorithmCreateFunc* gjk_;
 };
 
+// Bullet's default pools hold 4096 contact manifolds and 4096 collision algorithms (about 9 MB in double
+// precision), written through when the world is made: 20-30 ms of a physics process's start and of every
+// environment of an RL vector. A scene here has tens of pairs (the funnel's 97 pieces against the pole at
+// most), and a full pool is not an error: btCollisionDispatcher then takes the next one from the heap
+// (getNewManifold, allocateCollisionAlgorithm) and frees it there.
+btDefaultCollisionConstructionInfo PoolSizes() {
+  btDefaultCollisionConstructionInfo info;
+  info.m_defaultMaxPersistentManifoldPoolSize = 256;
+  info.m_defaultMaxCollisionAlgorithmPoolSize = 256;
+  return info;
+}
+
 }  // namespace
 
 ShapeBox PrincipalBox(const std::vector<Eigen::Vector3d>& points_S) {
@@ -189,7 +201,8 @@ bool BoundsApart(const Bound& a, const Bound& b, double gap_m) {
 }
 
 CollisionConfiguration::CollisionConfiguration()
-    : culled_convex_create_func_(new CulledConvexCreateFunc(m_convexConvexCreateFunc)) {}
+    : btDefaultCollisionConfiguration(PoolSizes()),
+      culled_convex_create_func_(new CulledConvexCreateFunc(m_convexConvexCreateFunc)) {}
 
 CollisionConfiguration::~CollisionConfiguration() { delete culled_convex_create_func_; }
 
