@@ -434,9 +434,10 @@ void ContactSolver::FillSide(const Side& side, bool is_a, const btVector3& p_W, 
     multibody->setCompanionId(velocity_index);
     m_data.m_deltaVelocities.resize(m_data.m_deltaVelocities.size() + dofs, 0.0);
   }
+  // uninitialised: ContactJacobian and Response write every entry
   jac_index = m_data.m_jacobians.size();
-  m_data.m_jacobians.resize(m_data.m_jacobians.size() + dofs);
-  m_data.m_deltaVelocitiesUnitImpulse.resize(m_data.m_deltaVelocitiesUnitImpulse.size() + dofs);
+  m_data.m_jacobians.resizeNoInitialize(m_data.m_jacobians.size() + dofs);
+  m_data.m_deltaVelocitiesUnitImpulse.resizeNoInitialize(m_data.m_deltaVelocitiesUnitImpulse.size() + dofs);
   double* jac = &m_data.m_jacobians[jac_index];
   double* response = &m_data.m_deltaVelocitiesUnitImpulse[jac_index];
   side.mass->ContactJacobian(side.link, p_W, direction, jac);
