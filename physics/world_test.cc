@@ -396,6 +396,23 @@ TEST(MultibodyWorld, StaticBodiesTouchingEachOtherMakeNoContacts) {
   EXPECT_NEAR(world.ContactForce_W(box).z(), -9.81, 1e-6);
 }
 
+// More pairs than the collision pools hold (256, physics/internal/collision_configuration.cc): the rest come
+// from the heap, and every box still rests on the ground with its weight.
+TEST(MultibodyWorld, MoreContactPairsThanThePoolsHoldAllRest) {
+  WorldConfig config;
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Vector3d p_m(0.5 * (i % 20), 0.5 * (i / 20), -0.1);
+    config.objects.push_back(Box("box" + std::to_string(i), Eigen::Vector3d(0.2, 0.2, 0.2), p_m, 1.0));
+  }
+  MultibodyWorld world(config, 0.001);
+  for (int k = 0; k < 100; ++k) world.Step();
+  for (int i = 0; i < 300; ++i) {
+    const int box = world.FindBody("box" + std::to_string(i));
+    EXPECT_NEAR(world.ContactForce_W(box).z(), -9.81, 1e-6) << i;
+    EXPECT_NEAR(world.body(box).p_WB_m.z(), -0.1, 1e-3) << i;
+  }
+}
+
 TEST(Simulation, CollisionFiltersLetAVehiclePassThroughAnObject) {
   SimulationConfig config;
   config.world.ground = false;

@@ -317,6 +317,7 @@ done
 grep -q "evaluation is skipped: it reads the bag, and recording.enabled is false" "$work/unrecorded.out" ||
   fail "unrecorded run: $(cat "$work/unrecorded.out")"
 [ ! -e "$work/spiral_unrecorded/run.bag" ] || fail "an unrecorded run wrote a bag"
+expect_exit 2 "the run was not recorded (recording.enabled is false)" "$iapsim" evaluate "$work/spiral_unrecorded"
 expect_exit 2 "--video iap: the video is made from the bag, and recording.enabled is false" "$iapsim" run \
   "$src/configs/regression/three_star_spiral.yaml" --duration 1 --out "$work/unrecorded_video" \
   --set recording.enabled=false --video iap

@@ -223,6 +223,11 @@ int Evaluate(const std::string& run_dir) {
               << ": no evaluation section (tracking, contact, videos): nothing to evaluate" << std::endl;
     return 2;
   }
+  if (!scenario.recording.enabled) {
+    std::cerr << "iapsim: " << run_dir << ": the run was not recorded (recording.enabled is false), and the "
+              << "evaluation reads its bag" << std::endl;
+    return 2;
+  }
   EvaluateRun(run_dir, evaluation);
   return 0;
 }
