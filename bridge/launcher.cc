@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstring>
@@ -96,6 +97,8 @@ std::string Trimmed(std::string text) {
 
 // how often the launcher tells processes started elsewhere that it is still there
 constexpr auto kAlivePeriod = milliseconds(200);
+// a process sends its bye (with its report) and then exits: how long the bye may still be on its way
+constexpr auto kByeLimit = milliseconds(1000);
 
 std::string DescribeExit(int status) {
   if (WIFEXITED(status)) return "exited with code " + std::to_string(WEXITSTATUS(status));
@@ -213,6 +216,9 @@ class Supervisor {
       if (stopping_) Escalate();
       ShowProgress();
     }
+    // the last exit can be reaped before its bye is read: metrics.json would lack that process's report
+    const auto bye_limit = Clock::now() + kByeLimit;
+    while (ByeOnItsWay() && Clock::now() < bye_limit) ReadControl();
     if (progress_) std::fprintf(stderr, "\n");
     return failure_;
   }
@@ -238,6 +244,13 @@ class Supervisor {
       if (!c.exited) return false;
     }
     return true;
+  }
+
+  // a child started here that exited cleanly said bye before it exited
+  bool ByeOnItsWay() const {
+    return std::any_of(children_.begin(), children_.end(), [](const Child& c) {
+      return !c.external() && !c.said_bye && WIFEXITED(c.status) && WEXITSTATUS(c.status) == 0;
+    });
   }
 
   void TellExternalsAlive() {

@@ -293,13 +293,14 @@ elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
 # the contract is that a stop never hangs: the launcher asks, then sends SIGTERM, then SIGKILL, within
 # about 6 s whatever the processes do (a loaded machine takes longer than an idle one)
 [ $elapsed_ms -lt 10000 ] || fail "SIGTERM: stopping took $elapsed_ms ms"
-if pgrep -f -- "$work/live" > /dev/null; then fail "processes left behind: $(pgrep -af -- "$work/live")"; fi
-"$iapsim" info "$work/live/run.bag" > /dev/null || fail "the stopped run's bag is not readable"
 for _ in $(seq 50); do kill -0 $echo_wait 2> /dev/null || break; sleep 0.1; done
 if kill -0 $echo_wait 2> /dev/null; then kill $echo_wait; fail "echo still waits 5 s after the run ended"; fi
 wait_code $echo_wait
 [ $code -eq 1 ] || fail "echo of a run that ended exited $code: $(cat "$work/echo_wait.err")"
 grep -q "the run in $work/live has ended" "$work/echo_wait.err" || fail "echo: $(cat "$work/echo_wait.err")"
+# after the echo has given up: its command line names the run too
+if pgrep -f -- "$work/live" > /dev/null; then fail "processes left behind: $(pgrep -af -- "$work/live")"; fi
+"$iapsim" info "$work/live/run.bag" > /dev/null || fail "the stopped run's bag is not readable"
 expect_exit 1 "has ended" "$iapsim" echo /iap/state --run "$work/live"
 
 # a tracked flight: `run` evaluates it, `evaluate` recomputes its metrics and plots, `regress` rejects a bad suite
