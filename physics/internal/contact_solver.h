@@ -2,28 +2,27 @@
 // Bullet's multibody constraint solver (sequential impulses, projected Gauss-Seidel) with two changes that
 // make contact as cheap as Bullet's iterations allow. Internal to physics/: it exposes Bullet types.
 //
-// 1. Warm starting: every contact row (normal and both friction directions) and every latch row starts from
-// the
-//    impulse it ended the last step with, applied to the bodies before the iterations, as Catto's sequential
-//    impulses do (GDC 2006, "Fast and Simple Physics using Sequential Impulses"), so a resting or steadily
-//    sliding contact starts at its solution. Bullet's own SOLVER_USE_ARTICULATED_WARMSTARTING (3.24) is not
-//    used: it starts friction from zero (a pole leaning in the funnel's hole took 34 iterations a step on
-//    average with it, 6 with this, 48 cold) and applies a latch row's warm impulse to a multibody but not to
-//    a rigid body on its other side, which spun a latched rod-and-crate pair up from 0.7 to 12 rad/s
-//    (measured).
+// 1. Warm starting: every contact row (normal and both friction directions) and every latch row starts
+//    from the impulse it ended the last step with, applied to the bodies before the iterations, as Catto's
+//    sequential impulses do (GDC 2006, "Fast and Simple Physics using Sequential Impulses"), so a resting or
+//    steadily sliding contact starts at its solution. Bullet's own SOLVER_USE_ARTICULATED_WARMSTARTING
+//    (3.24) is not used: it starts friction from zero (a pole leaning in the funnel's hole took 34 iterations
+//    a step on average with it, 6 with this, 48 cold) and applies a latch row's warm impulse to a multibody
+//    but not to a rigid body on its other side, which spun a latched rod-and-crate pair up from 0.7 to
+//    12 rad/s (measured).
 //
 // 2. Contact rows of multibodies built from one factorisation of each multibody's mass matrix per step.
-// Bullet
-//    builds each row (a contact point's normal and two friction directions: 36 rows for an IAP standing on
-//    its three boxes) with its own articulated-body pass for M⁻¹Jᵀ and its own Jacobian walk: 68 % of the
-//    resting IAP's step (callgrind). MultibodyMass instead assembles M = Σ_k J_kᵀ M_k J_k from the links'
-//    spatial Jacobians, factors it once (Cholesky), and gives each row its Jacobian in closed form and M⁻¹Jᵀ
-//    by two triangular solves. The rows are Bullet's (btMultiBodySolverConstraint, solved by Bullet's
-//    iterations) with Bullet's right-hand sides (error reduction, speculative distance, restitution,
-//    stiffness/damping); contact_solver_test checks the Jacobians and responses against Bullet's
-//    fillContactJacobianMultiDof and calcAccelerationDeltasMultiDof, and a stepped scene against Bullet's own
-//    rows. Multibodies with joints other than spherical and fixed, movable rigid bodies and rolling or
-//    spinning friction keep Bullet's rows.
+//    Bullet builds each row (a contact point's normal and two friction directions: 36 rows for an IAP
+//    standing on its three boxes) with its own articulated-body pass for M⁻¹Jᵀ and its own Jacobian walk:
+//    68 % of the resting IAP's step (callgrind). MultibodyMass instead assembles M = Σ_k J_kᵀ M_k J_k from
+//    the links' spatial Jacobians, inverts it once (block elimination along the tree, which fills nothing
+//    in), and gives each row its Jacobian in closed form and M⁻¹Jᵀ from the columns of M⁻¹ it touches. The
+//    rows are Bullet's (btMultiBodySolverConstraint, solved by Bullet's iterations) with Bullet's right-hand
+//    sides (error reduction, speculative distance, restitution, stiffness/damping); contact_solver_test
+//    checks the Jacobians and responses against Bullet's fillContactJacobianMultiDof and
+//    calcAccelerationDeltasMultiDof, and a stepped scene against Bullet's own rows. Multibodies with joints
+//    other than spherical and fixed, movable rigid bodies and rolling or spinning friction keep Bullet's
+//    rows.
 
 #include <BulletCollision/NarrowPhaseCollision/btManifoldPoint.h>
 #include <BulletDynamics/Featherstone/btMultiBody.h>
@@ -70,26 +69,25 @@ class MultibodyMass {
 
   // adds `block` to the mass matrix at (row, col) and, off the diagonal, its transpose at (col, row)
   void AddBlock(int row, int col, const Eigen::Matrix3d& block);
+  // inverse_ from mass_; false when M is not positive definite
+  bool Invert();
 
-  // a link's spatial Jacobian in 3-column blocks: first column, angular part, linear part (scratch)
+  // a link's spatial Jacobian for the rates of a joint on its way to the base: first column, angular part,
+  // linear part (scratch; the base's two blocks are written out in Update)
   struct JacobianBlock {
     int col;
     Eigen::Matrix3d angular, linear;
   };
 
   int dofs_ = 0;
-  std::vector<Link> links_;  // base first, then Bullet's links in order (a parent before its children)
+  std::vector<Link> links_;       // base first, then Bullet's links in order (a parent before its children)
+  std::vector<int> node_parent_;  // per node of three rates (Invert), -1 for the root
   Eigen::MatrixXd mass_;
+  Eigen::MatrixXd eliminated_;  // scratch (Invert)
   Eigen::MatrixXd inverse_;
-  Eigen::MatrixXd factor_;  // scratch: L, then L⁻¹
   std::vector<JacobianBlock> blocks_;
   bool valid_ = false;
 };
-
-/// M⁻¹ of a symmetric positive definite M by Cholesky (`factor`: scratch). False when M is not positive
-/// definite.
-bool InvertSymmetricPositiveDefinite(const Eigen::MatrixXd& m, Eigen::MatrixXd* factor,
-                                     Eigen::MatrixXd* inverse);
 
 class ContactSolver final : public btMultiBodyConstraintSolver {
  public:
