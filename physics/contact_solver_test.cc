@@ -89,7 +89,7 @@ TEST(MultibodyMass, JacobiansAndResponsesAreBulletsForEveryLink) {
       mass.Response(link, jac.data(), response.data());
       for (int i = 0; i < dofs; ++i) {
         EXPECT_NEAR(jac[i], bullet_jac[i], 1e-12) << "link " << link << " dof " << i;
-        EXPECT_NEAR(response[i], bullet_response[i], 1e-9 * (1.0 + std::abs(bullet_response[i])))
+        EXPECT_NEAR(response[i], bullet_response[i], 1e-12 * (1.0 + std::abs(bullet_response[i])))
             << "link " << link << " dof " << i;
       }
     }
