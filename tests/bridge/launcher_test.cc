@@ -763,10 +763,17 @@ TEST_F(LauncherTest, ForgedControlMessagesAreRefused) {
 
 // Subscribers to a lockstep run's shared-memory bus from outside the run: one without the run's secret gets
 // nothing and is refused; one of another user is refused (when the test may change its user); one with the
-// secret that stops reading is dropped when its queue fills, and never holds the clock.
+// secret that stops reading is dropped when its queue fills, and never holds the clock. The controller holds
+// the run at step 0 until the intruders have tried (a fast run could otherwise end before they do).
 TEST_F(LauncherTest, IntrudersOnTheBusAreRefusedOrDroppedAndTheRunGoesOn) {
   const std::string scenario = WriteScenario("loop", LoopScenario(20.0));
-  ASSERT_GT(StartInBackground(scenario, {"bus.shm_queue_max_mib=1"}, "physics"), 0);
+  ASSERT_GT(StartInBackground(
+                scenario,
+                {"bus.shm_queue_max_mib=1", "clock.ack_timeout_s=30", "processes.control.hang_timeout_s=30",
+                 "processes.control.params.stall_at_step=0", "processes.control.params.stall_s=10",
+                 "processes.control.params.hold_until_file=release"},
+                "physics"),
+            0);
   const YAML::Node resolved = BackgroundScenario();
   const std::string secret = BackgroundSecret();
   const auto subscriber = [&](const std::string& name, const std::string& with_secret) {
@@ -787,10 +794,6 @@ TEST_F(LauncherTest, IntrudersOnTheBusAreRefusedOrDroppedAndTheRunGoesOn) {
   thief->SubscribeRaw("", [&](const uint8_t*, size_t, const MessageInfo&) { ++stolen; });
   auto stalled = subscriber("stalled", secret);
   stalled->SubscribeRaw("", [&](const uint8_t*, size_t, const MessageInfo&) { ++read_then_stalled; });
-  const auto start = std::chrono::steady_clock::now();
-  while (read_then_stalled == 0 && std::chrono::steady_clock::now() - start < std::chrono::seconds(10)) {
-    stalled->Spin(std::chrono::milliseconds(5));
-  }
   spin_for(*thief, std::chrono::milliseconds(300));
   // another user's process, with the secret even: refused for its uid
   bool other_user_tried = false;
@@ -809,6 +812,12 @@ TEST_F(LauncherTest, IntrudersOnTheBusAreRefusedOrDroppedAndTheRunGoesOn) {
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "another user's subscriber read the bus";
     other_user_tried = true;
   }
+  std::ofstream(dir_ / "run" / "release");
+  const auto start = std::chrono::steady_clock::now();
+  while (read_then_stalled == 0 && std::chrono::steady_clock::now() - start < std::chrono::seconds(10)) {
+    stalled->Spin(std::chrono::milliseconds(5));
+  }
+  spin_for(*thief, std::chrono::milliseconds(100));  // while the run publishes
   // `stalled` reads nothing more until the run has ended
   const LaunchResult result = WaitForBackgroundRun();
   ASSERT_EQ(result.exit_code, 0) << result.message;

@@ -11,7 +11,9 @@
 //
 // In lockstep and fast mode each checks that it sees exactly the step it expects (none skipped, none
 // repeated, the command of the previous step applied) and fails otherwise.
-// kill_at_step / hang_at_step make it die by SIGKILL or stop responding, for supervision tests.
+// kill_at_step / hang_at_step make it die by SIGKILL or stop responding, for supervision tests;
+// stall_at_step makes one step take stall_s, or with hold_until_file until that file appears in the run
+// directory (at most stall_s), so a test decides when the run goes on.
 
 #include <iapsim_msgs/IapCommand.h>
 #include <iapsim_msgs/IapState.h>
@@ -45,6 +47,7 @@ class TestNode : public Process {
     params.Optional("hang_at_step", &hang_at_step_);
     params.Optional("stall_at_step", &stall_at_step_);
     params.OptionalInRange("stall_s", &stall_s_, 0.0, 10.0);
+    params.Optional("hold_until_file", &hold_until_file_);
     params.OptionalInRange("setup_delay_s", &setup_delay_s_, 0.0, 10.0);
     params.Optional("expect_uwb_of_step", &expect_uwb_of_step_);
     params.Optional("expect_uwb_of_previous_step", &expect_uwb_of_previous_step_);
@@ -88,9 +91,7 @@ class TestNode : public Process {
     if (static_cast<int64_t>(step.step) == hang_at_step_) {
       while (true) std::this_thread::sleep_for(std::chrono::seconds(1));
     }
-    if (static_cast<int64_t>(step.step) == stall_at_step_) {
-      std::this_thread::sleep_for(std::chrono::duration<double>(stall_s_));  // one slow step
-    }
+    if (static_cast<int64_t>(step.step) == stall_at_step_) Stall();
     ++steps_;
     if (behavior_ == "clock") return StepClock(step);
     // lockstep: the state of this very step arrived before its tick
@@ -108,6 +109,16 @@ class TestNode : public Process {
   }
 
  private:
+  // one slow step
+  void Stall() const {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(stall_s_);
+    if (hold_until_file_.empty()) return std::this_thread::sleep_until(end);
+    const std::string path = run_dir_ + "/" + hold_until_file_;
+    while (access(path.c_str(), F_OK) != 0 && std::chrono::steady_clock::now() < end) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+
   // lockstep and fast both wait for participants, so nothing a participant sends arrives late
   bool Causal() const { return mode_ != ClockMode::kRealtime; }
 
@@ -192,6 +203,7 @@ class TestNode : public Process {
   int64_t hang_at_step_ = -1;
   int64_t stall_at_step_ = -1;
   double stall_s_ = 0.0;
+  std::string hold_until_file_;  // relative to the run directory
   double setup_delay_s_ = 0.0;
   bool expect_uwb_of_step_ = false;
   bool expect_uwb_of_previous_step_ = false;
