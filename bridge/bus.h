@@ -55,7 +55,8 @@ struct BusOptions {
   int receive_hwm = 10000;                  // messages queued per publisher at this subscriber
   DropPolicy drop_policy = DropPolicy::kBlock;
   std::chrono::milliseconds block_timeout{2000};
-  std::chrono::microseconds spin{50};  // shm peers: Spin polls the queues this long, then sleeps
+  // shm peers: Spin polls the queues this long, then sleeps (not while its yields lose the core: Spin)
+  std::chrono::microseconds spin{50};
   // shm peers, 0: a sleeping subscriber is woken by its publishers when data arrives (a system call on their
   // side); > 0: it sleeps this long at most and then looks at its queues, and publishers never wake it (for
   // a subscriber that may lag, such as the recorder, so as to cost its publishers nothing)
@@ -98,6 +99,9 @@ struct BusStats {
   // sleeps that ran to their timeout: a subscriber woken by its publishers (poll_period 0) only times out
   // when nothing was sent to it (the ZeroMQ path cannot tell and counts none)
   uint64_t sleeps_timed_out = 0;
+  // shm spins cut short because a yield gave the core to another task (the machine is oversubscribed); each
+  // makes the next waits sleep without spinning
+  uint64_t contended_spins = 0;
   uint64_t refused_peers = 0;        // shm connections refused: another user, or without the run's secret
   uint64_t dropped_subscribers = 0;  // shm subscribers let go: not of the run, and not reading
 };

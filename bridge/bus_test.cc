@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "bridge/internal/shm_transport.h"
+#include "bridge/testing/busy_loops.h"
 
 namespace iapsim::bridge {
 namespace {
@@ -526,25 +527,40 @@ TEST(BusShm, AMutedPeerMissesMessagesWithoutCountingThemLost) {
   EXPECT_EQ(peers["due"]->stats().topics.at("/iap/state").lost, 0u);
 }
 
-// A subscriber asleep in Spin is woken by the publisher, not by its timeout.
-TEST(BusShm, WakesASleepingSubscriber) {
+// A publisher and a subscriber to its "/t" over shared memory, the subscriber through its handshake (the
+// publisher needs none: it serves whoever connects).
+struct ShmPair {
+  std::unique_ptr<Bus> publisher, subscriber;
+};
+ShmPair ConnectShm(const std::string& tag, std::chrono::microseconds subscriber_spin,
+                   Bus::RawCallback on_message) {
+  ShmPair pair;
   auto publisher_options = Options("pub", {});
-  publisher_options.bind_endpoint = "shm://iapsim-test-" + std::to_string(getpid()) + "-wake-pub";
-  Bus publisher(publisher_options);
+  publisher_options.bind_endpoint = "shm://iapsim-test-" + std::to_string(getpid()) + "-" + tag + "-pub";
+  pair.publisher = std::make_unique<Bus>(publisher_options);
   auto subscriber_options = Options("sub", {});
   subscriber_options.peer_endpoints = {publisher_options.bind_endpoint};
-  subscriber_options.spin = std::chrono::microseconds(0);
-  Bus subscriber(subscriber_options);
-  int received = 0;
-  subscriber.SubscribeRaw("/t", [&](const uint8_t*, size_t, const MessageInfo&) { ++received; });
-  subscriber.BeginHandshake();
+  subscriber_options.spin = subscriber_spin;
+  pair.subscriber = std::make_unique<Bus>(subscriber_options);
+  pair.subscriber->SubscribeRaw("/t", std::move(on_message));
+  pair.subscriber->BeginHandshake();
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (!subscriber.HandshakeComplete({"pub"})) {
-    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "handshake did not complete";
-    publisher.PublishHello();
-    subscriber.Spin(milliseconds(2));
+  while (!pair.subscriber->HandshakeComplete({"pub"})) {
+    if (std::chrono::steady_clock::now() > deadline) throw std::runtime_error("handshake did not complete");
+    pair.publisher->PublishHello();
+    pair.subscriber->Spin(milliseconds(2));
   }
-  subscriber.EndHandshake();
+  pair.subscriber->EndHandshake();
+  return pair;
+}
+
+// A subscriber asleep in Spin is woken by the publisher, not by its timeout.
+TEST(BusShm, WakesASleepingSubscriber) {
+  int received = 0;
+  ShmPair pair = ConnectShm("wake", std::chrono::microseconds(0),
+                            [&](const uint8_t*, size_t, const MessageInfo&) { ++received; });
+  Bus& publisher = *pair.publisher;
+  Bus& subscriber = *pair.subscriber;
   const BusStats before = subscriber.stats();  // the handshake's short sleeps ran out
   for (int i = 0; i < 20; ++i) {
     std::thread later([&] {
@@ -561,6 +577,25 @@ TEST(BusShm, WakesASleepingSubscriber) {
   }
   EXPECT_GT(subscriber.stats().sleeps,
             before.sleeps);  // a message sent before it slept is taken without sleeping
+}
+
+// On an oversubscribed machine a spinning subscriber's yields give its core away for a time slice: it then
+// sleeps at once for a growing number of waits instead of spinning (without the back-off every wait's spin
+// would be cut short).
+TEST(BusShm, ASubscriberWhoseSpinLosesTheCoreSleepsInstead) {
+  ShmPair pair = ConnectShm("contended", std::chrono::microseconds(200),
+                            [](const uint8_t*, size_t, const MessageInfo&) {});
+  Bus& subscriber = *pair.subscriber;
+  const BusStats before = subscriber.stats();
+  constexpr int kWaits = 60;
+  {
+    const testing::BusyLoops busy;
+    for (int i = 0; i < kWaits; ++i) subscriber.Spin(milliseconds(2));  // nothing comes: spin, then sleep
+  }
+  const uint64_t contended = subscriber.stats().contended_spins - before.contended_spins;
+  EXPECT_GE(contended, 1u);
+  EXPECT_LE(contended, kWaits / 3) << "spun on after its spins had lost the core";
+  EXPECT_EQ(subscriber.stats().sleeps - before.sleeps, static_cast<uint64_t>(kWaits));
 }
 
 // Processes come and go: a subscriber that starts after its publisher gets its messages, and it reconnects

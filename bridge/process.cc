@@ -54,7 +54,8 @@ nlohmann::json BusReport(const BusStats& stats) {
           {"refused_peers", stats.refused_peers},
           {"dropped_subscribers", stats.dropped_subscribers},
           {"sleeps", stats.sleeps},
-          {"sleeps_timed_out", stats.sleeps_timed_out}};
+          {"sleeps_timed_out", stats.sleeps_timed_out},
+          {"contended_spins", stats.contended_spins}};
 }
 
 class Runtime {

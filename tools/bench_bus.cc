@@ -19,9 +19,12 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "bridge/bus.h"
 #include "bridge/eigen_msgs.h"
+#include "bridge/scenario.h"
+#include "bridge/testing/busy_loops.h"
 #include "tools/commands.h"
 
 namespace iapsim::tools {
@@ -38,6 +41,7 @@ int64_t NowNs() {
 struct Endpoints {
   std::string parent, child;
   std::string secret;  // "+curve": the ZeroMQ connections authenticate and encrypt as a run's do
+  std::chrono::microseconds spin = BusOptions{}.spin;  // shm: how long a waiting bus looks before it sleeps
 };
 
 Endpoints MakeEndpoints(std::string transport, int index) {
@@ -58,12 +62,13 @@ Endpoints MakeEndpoints(std::string transport, int index) {
 }
 
 Bus MakeBusFor(const std::string& name, const std::string& bind, const std::string& peer,
-               const std::string& secret) {
+               const Endpoints& e) {
   BusOptions options;
   options.node_name = name;
   options.bind_endpoint = bind;
   options.peer_endpoints = {peer};
-  options.secret = secret;
+  options.secret = e.secret;
+  options.spin = e.spin;
   // a ZeroMQ publisher of a run also serves observers (bridge/bus.h): measured with it, idle as in most runs
   if (bind.rfind("tcp://", 0) == 0) options.observer_endpoint = "tcp://127.0.0.1:*";
   if (bind.rfind("ipc://", 0) == 0) options.observer_endpoint = bind + "-observers";
@@ -85,7 +90,7 @@ void HandshakeWith(Bus& bus, const std::string& peer) {
 [[noreturn]] void Child(const Endpoints& e, const std::string& kind, int pipe_fd) {
   int code = 0;
   try {
-    Bus bus = MakeBusFor("child", e.child, e.parent, e.secret);
+    Bus bus = MakeBusFor("child", e.child, e.parent, e);
     std::vector<double> latencies_us;
     bool pinged = false, done = false;
     iapsim_msgs::StepAck ack;
@@ -140,8 +145,10 @@ struct PingPongResult {
 };
 
 // Forks a child before any ZeroMQ context exists in this process, then ping-pongs `count` messages.
-PingPongResult PingPong(const std::string& transport, const std::string& kind, int index, int count) {
-  const Endpoints e = MakeEndpoints(transport, index);
+PingPongResult PingPong(const std::string& transport, const std::string& kind, int index, int count,
+                        std::chrono::microseconds spin = BusOptions{}.spin) {
+  Endpoints e = MakeEndpoints(transport, index);
+  e.spin = spin;
   int fds[2];
   if (pipe(fds) != 0) throw std::runtime_error("bench: pipe");
   const pid_t pid = fork();
@@ -152,7 +159,7 @@ PingPongResult PingPong(const std::string& transport, const std::string& kind, i
   close(fds[1]);
   PingPongResult result;
   {
-    Bus bus = MakeBusFor("parent", e.parent, e.child, e.secret);
+    Bus bus = MakeBusFor("parent", e.parent, e.child, e);
     uint64_t acked = 0;
     bool have_ack = false;
     bus.Subscribe<iapsim_msgs::StepAck>("/pong", [&](const iapsim_msgs::StepAck& a, const MessageInfo&) {
@@ -288,6 +295,26 @@ int BenchBus(nlohmann::json* report) {
                 static_cast<unsigned long long>(r.round_trips), r.round_trips_per_s,
                 r.round_trips_per_s / bare);
     out["lockstep_round_trips_per_s"][transport] = r.round_trips_per_s;
+  }
+  // Waiting processes spin (bus.spin_us) only while a yield keeps the core (bridge/bus.cc, Spin): on an
+  // oversubscribed machine spinners wait for each other's time slices. Against sleeping at once (spin 0).
+  {
+    const testing::BusyLoops busy;
+    std::printf("\nshm lockstep tick -> ack with %zu busy loops on %u cores (an oversubscribed machine)\n",
+                busy.count(), std::thread::hardware_concurrency());
+    std::printf("%-34s %12s %14s %16s\n", "waiting bus", "round trips", "per second", "vs no spin");
+    double no_spin = 0.0;
+    for (const int spin_us : {0, bridge::BusConfig{}.spin_us}) {
+      const PingPongResult r = PingPong("shm", "tick", index++, 5000, std::chrono::microseconds(spin_us));
+      if (spin_us == 0) no_spin = r.round_trips_per_s;
+      const std::string label =
+          "spin_us " + std::to_string(spin_us) + (spin_us == 0 ? " (sleeps at once)" : "");
+      std::printf("%-34s %12llu %14.0f %16.2f\n", label.c_str(),
+                  static_cast<unsigned long long>(r.round_trips), r.round_trips_per_s,
+                  r.round_trips_per_s / no_spin);
+      out["oversubscribed_lockstep_round_trips_per_s"]["spin_us_" + std::to_string(spin_us)] =
+          r.round_trips_per_s;
+    }
   }
   std::printf("\ntargets: state p99 on the same host (shm) < 100 us; >= 20000 lockstep round trips/s\n");
   return 0;
