@@ -563,20 +563,22 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
 
   // shared memory: a message arrives without a system call, so look for one a little while before sleeping
   // (a wake-up costs ~25 us in a VM), yielding between looks. Spinning pays only while the core has nothing
-  // else to run: a yield that took long gave the core to another task, and on an oversubscribed machine
-  // spinning processes are CPU-bound to the scheduler and wait for each other's time slices (a lockstep
-  // step took 4.6 ms, against 0.15 ms sleeping, with three busy loops on two cores) while a sleeper is
-  // woken at once by wake-up preemption. So a contended spin ends in sleep and doubles the number of waits
+  // else to run: a yield that took a time slice gave the core to another task, and on an oversubscribed
+  // machine spinning processes are CPU-bound to the scheduler and wait for each other's time slices (a
+  // lockstep step took 4.6 ms, against 0.15 ms sleeping, with three busy loops on two cores) while a sleeper
+  // is woken at once by wake-up preemption. So a contended spin ends in sleep and doubles the number of waits
   // that then sleep without spinning (1, 2, 4 ... 4096); a spin that yielded without losing the core
-  // halves it. (Under load about half the spins were contended: resetting on an uncontended one kept
-  // spinning, 0.8 s for 2,000 steps against 0.4 s; halving settles at long backoffs.)
+  // halves it. (Under load about half the spins were contended: resetting the back-off on an uncontended
+  // one kept spinning, 0.8 s for 2,000 steps against 0.4 s; halving settles at long back-offs.)
   using SteadyClock = std::chrono::steady_clock;
   const auto start = SteadyClock::now();
   if (impl.shm_subscriber && impl.options.spin.count() > 0) {
     if (impl.spinless_waits_left > 0) {
       --impl.spinless_waits_left;
     } else {
-      constexpr auto kContendedYield = std::chrono::microseconds(50);
+      // a time slice: a busy loop held the core 1-10 ms; the recorder's batches, that share it with spinners
+      // in every recorded run and for which spinning still pays, hold it under 1 ms
+      constexpr auto kContendedYield = std::chrono::milliseconds(1);
       constexpr int kMaxSpinBackoff = 4096;
       const auto spin_end = start + std::min(timeout, impl.options.spin);
       auto now = start;
