@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <csignal>
 #include <cstring>
 #include <ctime>
@@ -50,7 +51,11 @@ std::string ReadAll(int fd) {
   std::string text;
   char buffer[4096];
   ssize_t n;
-  while ((n = read(fd, buffer, sizeof(buffer))) > 0) text.append(buffer, static_cast<size_t>(n));
+  while ((n = read(fd, buffer, sizeof(buffer))) != 0) {
+    if (n < 0 && errno == EINTR) continue;  // the launcher's signal handler ran: the interrupt is seen later
+    if (n < 0) break;
+    text.append(buffer, static_cast<size_t>(n));
+  }
   return text;
 }
 
@@ -82,7 +87,8 @@ Captured RunCaptured(std::vector<std::string> args) {
   result.out = ReadAll(out_pipe[0]);
   close(out_pipe[0]);
   int status = 0;
-  waitpid(pid, &status, 0);
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   std::rewind(err_file);
   result.err = ReadAll(fileno(err_file));
@@ -687,6 +693,19 @@ std::string ExecutableDir() {
 
 LaunchResult Launch(const LaunchOptions& options) {
   LaunchResult result;
+  // from the start: an interrupt while the processes check their params (Ctrl-C reaches them too, so their
+  // checks fail) is reported as the interrupt
+  struct sigaction action {};
+  action.sa_handler = OnLauncherSignal;
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  launcher_signal = 0;
+  const auto interrupted = [&result] {
+    if (launcher_signal == 0) return false;
+    result.exit_code = 130;
+    result.message = std::string("interrupted by ") + strsignal(launcher_signal.load());
+    return true;
+  };
   Scenario scenario;
   std::map<std::string, std::string> executables;
   std::map<std::string, YAML::Node> resolved_params;
@@ -717,16 +736,18 @@ LaunchResult Launch(const LaunchOptions& options) {
       if (p.host == ProcessHost::kSrun) srun_path = PrepareSrun(options.scenario_path, &p, scenario.resolved);
     }
   } catch (const ConfigError& e) {
+    if (interrupted()) return result;
     result.exit_code = 2;
     result.message = e.what();
     return result;
   } catch (const std::exception& e) {
+    if (interrupted()) return result;
     result.exit_code = 1;
     result.message = e.what();
     return result;
   }
 
-  if (options.check_only) return result;
+  if (interrupted() || options.check_only) return result;
 
   // the run directory, with the configuration exactly as the processes will use it
   result.run_dir = MakeRunDir(options, scenario);
@@ -752,12 +773,6 @@ LaunchResult Launch(const LaunchOptions& options) {
   log->flush_on(spdlog::level::info);           // log.txt is complete at every moment, crash or not
   log->info("scenario {} ({} mode, {} s, seed {}), run directory {}", options.scenario_path,
             ToString(scenario.mode), scenario.duration_s, scenario.seed, result.run_dir);
-
-  struct sigaction action {};
-  action.sa_handler = OnLauncherSignal;
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
-  launcher_signal = 0;
 
   const auto wall_start = Clock::now();
   std::vector<std::string> names;

@@ -761,6 +761,21 @@ TEST_F(LauncherTest, ForgedControlMessagesAreRefused) {
   EXPECT_NE(log.find("refused a peer without credentials"), std::string::npos) << log;
 }
 
+// Ctrl-C while the processes check their params (the launcher waits for each --check) stops the launch as
+// interrupted (exit 130), not as a failed check, and starts nothing.
+TEST_F(LauncherTest, AnInterruptDuringTheParamChecksIsReportedAsTheInterrupt) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(5.0));
+  std::thread interrupter([] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    kill(getpid(), SIGINT);
+  });
+  const LaunchResult result = Run(scenario, "run", {"processes.control.params.check_delay_s=1"});
+  interrupter.join();
+  EXPECT_EQ(result.exit_code, 130) << result.message;
+  EXPECT_NE(result.message.find("interrupted by"), std::string::npos) << result.message;
+  EXPECT_FALSE(fs::exists(dir_ / "run" / "run.bag"));
+}
+
 // Subscribers to a lockstep run's shared-memory bus from outside the run: one without the run's secret gets
 // nothing and is refused; one of another user is refused (when the test may change its user); one with the
 // secret that stops reading is dropped when its queue fills, and never holds the clock. The controller holds

@@ -49,6 +49,9 @@ class TestNode : public Process {
     params.OptionalInRange("stall_s", &stall_s_, 0.0, 10.0);
     params.Optional("hold_until_file", &hold_until_file_);
     params.OptionalInRange("setup_delay_s", &setup_delay_s_, 0.0, 10.0);
+    double check_delay_s = 0.0;  // a slow --check, to interrupt the launcher while it waits for it
+    params.OptionalInRange("check_delay_s", &check_delay_s, 0.0, 10.0);
+    if (context.run_dir.empty()) std::this_thread::sleep_for(std::chrono::duration<double>(check_delay_s));
     params.Optional("expect_uwb_of_step", &expect_uwb_of_step_);
     params.Optional("expect_uwb_of_previous_step", &expect_uwb_of_previous_step_);
     params.Optional("unstamped", &unstamped_);
