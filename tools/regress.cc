@@ -5,8 +5,11 @@
 // turbulence and sensor noise), and its metrics' percentiles and task success rate are compared with the
 // flight's `monte_carlo` bounds.
 
+#include <pthread.h>
+
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +17,8 @@
 #include <iterator>
 #include <limits>
 #include <map>
+#include <memory>
+#include <thread>
 #include <tuple>
 
 #include "bridge/config.h"
@@ -170,38 +175,67 @@ Suite ReadSuite(const std::string& suite_dir) {
 
 // One flight run and evaluated; `error` says why not.
 struct FlightRun {
+  std::string name;  // <flight> or <flight>-<profile>
+  const Flight* flight = nullptr;
+  std::string profile;  // ideal, realistic
+  bool ideal = true;
+  std::vector<std::string> overrides;
   std::string run_dir;
   std::string error;
   int exit_code = 0;
   nlohmann::json metrics;  // {tracking: ..., contact: ...}
 };
 
-FlightRun Fly(const Flight& flight, const std::vector<std::string>& overrides, const fs::path& run_dir) {
-  FlightRun run;
+void Fly(FlightRun* run, const fs::path& run_dir) {
   bridge::LaunchOptions options;
-  options.scenario_path = flight.scenario;
-  options.overrides = overrides;
+  options.scenario_path = run->flight->scenario;
+  options.overrides = run->overrides;
   options.out_dir = run_dir.string();
   options.bin_dir = bridge::ExecutableDir();
   const bridge::LaunchResult result = bridge::Launch(options);
-  run.run_dir = result.run_dir.empty() ? options.out_dir : result.run_dir;
-  run.exit_code = result.exit_code;
-  if (result.exit_code != 0) {
-    run.error = result.message;
-    return run;
-  }
-  try {
-    const RunEvaluation evaluation = ReadRunEvaluation(bridge::LoadScenario(flight.scenario, overrides));
-    if (evaluation.empty()) {
-      run.error = "the scenario has no evaluation section";
-      return run;
-    }
-    run.metrics = EvaluateRun(result.run_dir, evaluation, /*print=*/true);
-  } catch (const std::exception& e) {
-    run.error = e.what();
-  }
-  return run;
+  run->run_dir = result.run_dir.empty() ? options.out_dir : result.run_dir;
+  run->exit_code = result.exit_code;
+  if (result.exit_code != 0) run->error = result.message;
 }
+
+// Evaluates a flown run (metrics and plots), printing nothing: it runs beside the next flight.
+void Evaluate(FlightRun* run) {
+  if (!run->error.empty()) return;
+  try {
+    const RunEvaluation evaluation =
+        ReadRunEvaluation(bridge::LoadScenario(run->flight->scenario, run->overrides));
+    if (evaluation.empty()) {
+      run->error = "the scenario has no evaluation section";
+      return;
+    }
+    run->metrics = EvaluateRun(run->run_dir, evaluation, /*print=*/false);
+  } catch (const std::exception& e) {
+    run->error = e.what();
+  }
+}
+
+// A thread that evaluates one run while the launcher flies the next: evaluating (reading the bag, the plots'
+// Python) is a third of a flight's time, and the lockstep run leaves part of the cores to it (its waiting
+// processes spin only while nothing else wants the core: bridge/bus.cc). SIGINT and SIGTERM stay with the
+// launcher's thread.
+class BackgroundEvaluation {
+ public:
+  explicit BackgroundEvaluation(FlightRun* run) {
+    sigset_t launcher_signals, previous;
+    sigemptyset(&launcher_signals);
+    sigaddset(&launcher_signals, SIGINT);
+    sigaddset(&launcher_signals, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &launcher_signals, &previous);
+    thread_ = std::thread(Evaluate, run);
+    pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+  }
+  BackgroundEvaluation(const BackgroundEvaluation&) = delete;
+  BackgroundEvaluation& operator=(const BackgroundEvaluation&) = delete;
+  ~BackgroundEvaluation() { thread_.join(); }
+
+ private:
+  std::thread thread_;
+};
 
 // A metric's value, NaN when the evaluation did not produce it or it is null (an axis never settled).
 double Value(const nlohmann::json& metrics, const Bound& bound) {
@@ -234,41 +268,67 @@ std::vector<Flight> Selected(const std::vector<Flight>& flights, const std::vect
   return out;
 }
 
+// Prints a flown and evaluated run's tables and checks, and records them in `report`; returns the failures.
+int Report(const FlightRun& run, nlohmann::json* report) {
+  nlohmann::json& entry = (*report)[run.name];
+  entry["run_dir"] = run.run_dir;
+  entry["fidelity"] = run.profile;
+  if (!run.error.empty()) {
+    std::printf("%-28s %-40s  FAILED: %s\n", run.name.c_str(), "run", run.error.c_str());
+    entry["error"] = run.error;
+    return 1;
+  }
+  PrintRunEvaluation(run.metrics);
+  int failures = 0;
+  for (const auto& [analysis, section] : run.metrics.items()) entry[analysis] = section;
+  for (const Bound& bound : run.ideal ? run.flight->bounds : run.flight->realistic_bounds) {
+    if (!Check(run.name, bound.Metric(), Value(run.metrics, bound), bound, &entry["checks"])) ++failures;
+  }
+  std::printf("%-28s plots and metrics in %s\n", run.name.c_str(), run.run_dir.c_str());
+  std::fflush(stdout);
+  return failures;
+}
+
 // Each flight once in each of `profiles`, its metrics against the bounds of that profile. A realistic run
-// is named <flight>-realistic (its folder, its rows and its entry in the report).
+// is named <flight>-realistic (its folder, its rows and its entry in the report). A run is evaluated while
+// the next one flies, and reported (in order) once that one has landed.
 int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::string>& profiles,
                 const std::vector<std::string>& overrides, const fs::path& out_dir, nlohmann::json* report,
                 bool* interrupted) {
-  int failures = 0;
-  std::printf("%-28s %-40s %12s %14s  %s\n", "flight", "metric", "value", "bound", "result");
+  std::vector<std::unique_ptr<FlightRun>> runs;
   for (const Flight& flight : flights) {
     for (const std::string& profile : profiles) {
-      const bool ideal = profile == "ideal";
-      const std::string name = ideal ? flight.name : flight.name + "-" + profile;
-      std::vector<std::string> profile_overrides = overrides;
-      profile_overrides.insert(profile_overrides.begin(),
-                               "fidelity=" + profile);  // --set may still change it
-      if (!ideal && flight.realistic_seed != 0) {
-        profile_overrides.insert(profile_overrides.begin() + 1,
-                                 "seed=" + std::to_string(flight.realistic_seed));
+      auto run = std::make_unique<FlightRun>();
+      run->flight = &flight;
+      run->profile = profile;
+      run->ideal = profile == "ideal";
+      run->name = run->ideal ? flight.name : flight.name + "-" + profile;
+      run->overrides = overrides;
+      run->overrides.insert(run->overrides.begin(), "fidelity=" + profile);  // --set may still change it
+      if (!run->ideal && flight.realistic_seed != 0) {
+        run->overrides.insert(run->overrides.begin() + 1, "seed=" + std::to_string(flight.realistic_seed));
       }
-      const FlightRun run = Fly(flight, profile_overrides, out_dir / name);
-      nlohmann::json& entry = (*report)[name];
-      entry["run_dir"] = run.run_dir;
-      entry["fidelity"] = profile;
-      if (!run.error.empty()) {
-        std::printf("%-28s %-40s  FAILED: %s\n", name.c_str(), "run", run.error.c_str());
-        entry["error"] = run.error;
-        ++failures;
-        if (run.exit_code == 130) return *interrupted = true, failures;
-        continue;
-      }
-      for (const auto& [analysis, section] : run.metrics.items()) entry[analysis] = section;
-      for (const Bound& bound : ideal ? flight.bounds : flight.realistic_bounds) {
-        if (!Check(name, bound.Metric(), Value(run.metrics, bound), bound, &entry["checks"])) ++failures;
-      }
-      std::printf("%-28s plots and metrics in %s\n", name.c_str(), run.run_dir.c_str());
+      runs.push_back(std::move(run));
     }
+  }
+  int failures = 0;
+  std::printf("%-28s %-40s %12s %14s  %s\n", "flight", "metric", "value", "bound", "result");
+  std::unique_ptr<BackgroundEvaluation> evaluating;  // of runs[i - 1] while runs[i] flies
+  for (size_t i = 0; i < runs.size(); ++i) {
+    Fly(runs[i].get(), out_dir / runs[i]->name);
+    if (evaluating) {
+      evaluating.reset();  // joins
+      failures += Report(*runs[i - 1], report);
+    }
+    if (runs[i]->exit_code == 130) {
+      failures += Report(*runs[i], report);
+      return *interrupted = true, failures;
+    }
+    evaluating = std::make_unique<BackgroundEvaluation>(runs[i].get());
+  }
+  if (evaluating) {
+    evaluating.reset();
+    failures += Report(*runs.back(), report);
   }
   return failures;
 }

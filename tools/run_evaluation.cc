@@ -54,25 +54,24 @@ nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& eval
   // opened once for every analysis: reading a bag's index is most of what reading a few topics costs
   std::optional<bridge::BagReader> bag;
   if (evaluation.tracking || evaluation.contact || !evaluation.odometry.empty()) bag.emplace(bag_path);
-  if (evaluation.tracking) {
-    out["tracking"] = EvaluateTracking(run_dir, *bag, *evaluation.tracking);
-    if (print) PrintTracking(out["tracking"]);
-  }
-  if (evaluation.contact) {
-    out["contact"] = EvaluateContact(run_dir, *bag, *evaluation.contact);
-    if (print) PrintContact(out["contact"]);
-  }
-  if (!evaluation.odometry.empty()) {
-    out["odometry"] = EvaluateOdometry(run_dir, *bag, evaluation.odometry);
-    if (print) PrintEstimateErrors(out["odometry"]);
-  }
+  if (evaluation.tracking) out["tracking"] = EvaluateTracking(run_dir, *bag, *evaluation.tracking);
+  if (evaluation.contact) out["contact"] = EvaluateContact(run_dir, *bag, *evaluation.contact);
+  if (!evaluation.odometry.empty()) out["odometry"] = EvaluateOdometry(run_dir, *bag, evaluation.odometry);
   for (const std::string& camera : evaluation.videos) {
     const CameraVideo video = WriteCameraVideo(bag_path, camera, DefaultVideoPath(bag_path, camera));
-    if (print) PrintCameraVideo(video);
-    out["videos"][video.topic] = {
-        {"video", video.video_path}, {"sheet", video.sheet_path}, {"images", video.images}};
+    out["videos"][video.topic] = ToJson(video);
   }
+  if (print) PrintRunEvaluation(out);
   return out;
+}
+
+void PrintRunEvaluation(const nlohmann::json& evaluated) {
+  if (evaluated.contains("tracking")) PrintTracking(evaluated["tracking"]);
+  if (evaluated.contains("contact")) PrintContact(evaluated["contact"]);
+  if (evaluated.contains("odometry")) PrintEstimateErrors(evaluated["odometry"]);
+  if (evaluated.contains("videos")) {
+    for (const auto& video : evaluated["videos"]) PrintCameraVideo(CameraVideoFromJson(video));
+  }
 }
 
 }  // namespace iapsim::tools

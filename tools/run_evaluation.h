@@ -32,9 +32,11 @@ void SetRunMetric(const std::string& run_dir, const std::string& key, const nloh
 /// Reads the scenario's `evaluation` section (unknown keys are errors). Throws bridge::ConfigError.
 RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario);
 
-/// Runs each analysis on run_dir, prints its table (unless `print` is false) and returns {tracking: ...,
+/// Runs each analysis on run_dir, prints their tables (unless `print` is false) and returns {tracking: ...,
 /// contact: ..., odometry: ..., videos: ...} (all but the videos are also written into run_dir/metrics.json).
 /// Throws std::runtime_error naming a file that is missing data.
 nlohmann::json EvaluateRun(const std::string& run_dir, const RunEvaluation& evaluation, bool print = true);
+/// Prints the tables of what EvaluateRun returned.
+void PrintRunEvaluation(const nlohmann::json& evaluated);
 
 }  // namespace iapsim::tools
