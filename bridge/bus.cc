@@ -568,8 +568,9 @@ int Bus::Spin(std::chrono::microseconds timeout, int max_batch) {
   // lockstep step took 4.6 ms, against 0.15 ms sleeping, with three busy loops on two cores) while a sleeper
   // is woken at once by wake-up preemption. So a contended spin ends in sleep and doubles the number of waits
   // that then sleep without spinning (1, 2, 4 ... 4096); a spin that yielded without losing the core
-  // halves it. (Under load about half the spins were contended: resetting the back-off on an uncontended
-  // one kept spinning, 0.8 s for 2,000 steps against 0.4 s; halving settles at long back-offs.)
+  // halves it. (Under load, with a 50 us threshold, about half the spins were contended: resetting the
+  // back-off on an uncontended one kept spinning, 0.8 s for 2,000 steps against 0.4 s; halving settles at
+  // long back-offs.)
   using SteadyClock = std::chrono::steady_clock;
   const auto start = SteadyClock::now();
   if (impl.shm_subscriber && impl.options.spin.count() > 0) {

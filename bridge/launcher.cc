@@ -694,18 +694,21 @@ std::string ExecutableDir() {
 LaunchResult Launch(const LaunchOptions& options) {
   LaunchResult result;
   // from the start: an interrupt while the processes check their params (Ctrl-C reaches them too, so their
-  // checks fail) is reported as the interrupt
+  // checks fail) is reported as the interrupt. An interrupt is consumed where a launch reports it, not
+  // cleared when one starts: one that came between two launches of a program (regress evaluating a flight)
+  // stops the next, and the launch after that starts clean.
   struct sigaction action {};
   action.sa_handler = OnLauncherSignal;
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
-  launcher_signal = 0;
   const auto interrupted = [&result] {
-    if (launcher_signal == 0) return false;
+    const int signal = launcher_signal.exchange(0);
+    if (signal == 0) return false;
     result.exit_code = 130;
-    result.message = std::string("interrupted by ") + strsignal(launcher_signal.load());
+    result.message = std::string("interrupted by ") + strsignal(signal);
     return true;
   };
+  if (interrupted()) return result;
   Scenario scenario;
   std::map<std::string, std::string> executables;
   std::map<std::string, YAML::Node> resolved_params;
@@ -851,6 +854,7 @@ LaunchResult Launch(const LaunchOptions& options) {
   if (!failure.empty()) {
     result.exit_code = supervisor.interrupted() ? 130 : 1;
     result.message = failure;
+    if (supervisor.interrupted()) launcher_signal = 0;  // reported
   } else if (lost > 0) {
     result.exit_code = 3;
     result.message = DescribeLosses(metrics["losses"], lost);

@@ -11,6 +11,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "tools/spawn_attributes.h"
+
 extern char** environ;
 
 namespace iapsim::tools {
@@ -56,7 +58,8 @@ class PlotServer {
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_adddup2(&actions, fds[1], STDIN_FILENO);
     posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-    const int spawned = posix_spawnp(&pid_, python.c_str(), &actions, nullptr, argv, environ);
+    const UnblockedSignalsSpawn attributes;
+    const int spawned = posix_spawnp(&pid_, python.c_str(), &actions, attributes.get(), argv, environ);
     posix_spawn_file_actions_destroy(&actions);
     close(fds[1]);
     if (spawned != 0) {

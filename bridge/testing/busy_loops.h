@@ -3,6 +3,7 @@
 // test and benchmark of spinning on an oversubscribed machine. The loops are processes, killed when this
 // goes out of scope, so a failing assertion never leaves them behind.
 
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -17,10 +18,13 @@ namespace iapsim::bridge::testing {
 class BusyLoops {
  public:
   BusyLoops() {
+    const pid_t parent = getpid();
     const unsigned count = 2 * std::max(1u, std::thread::hardware_concurrency());
     for (unsigned i = 0; i < count; ++i) {
       const pid_t pid = fork();
       if (pid == 0) {
+        prctl(PR_SET_PDEATHSIG, SIGKILL);  // never left behind, even if the test is killed
+        if (getppid() != parent) _exit(0);
         for (volatile uint64_t n = 0;; n = n + 1) {
         }
       }

@@ -765,8 +765,13 @@ TEST_F(LauncherTest, ForgedControlMessagesAreRefused) {
 // interrupted (exit 130), not as a failed check, and starts nothing.
 TEST_F(LauncherTest, AnInterruptDuringTheParamChecksIsReportedAsTheInterrupt) {
   const std::string scenario = WriteScenario("loop", LoopScenario(5.0));
-  std::thread interrupter([] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  std::thread interrupter([&scenario] {
+    // once a slow check runs (the launcher's handler is in place by then)
+    const std::string check = std::string("--check") + '\0' + "--scenario" + '\0' + scenario;
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (ProcessesMentioning(check).empty() && std::chrono::steady_clock::now() < give_up) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
     kill(getpid(), SIGINT);
   });
   const LaunchResult result = Run(scenario, "run", {"processes.control.params.check_delay_s=1"});
@@ -774,6 +779,19 @@ TEST_F(LauncherTest, AnInterruptDuringTheParamChecksIsReportedAsTheInterrupt) {
   EXPECT_EQ(result.exit_code, 130) << result.message;
   EXPECT_NE(result.message.find("interrupted by"), std::string::npos) << result.message;
   EXPECT_FALSE(fs::exists(dir_ / "run" / "run.bag"));
+}
+
+// In a program that launches one run after another (`iapsim regress`), an interrupt that comes between two
+// launches stops the next one before it starts anything, and the launch after that runs.
+TEST_F(LauncherTest, AnInterruptBetweenLaunchesStopsTheNextOneOnly) {
+  const std::string scenario = WriteScenario("loop", LoopScenario(0.1));
+  ASSERT_EQ(Run(scenario, "first").exit_code, 0);  // the launcher's handler is in place from here on
+  kill(getpid(), SIGINT);
+  const LaunchResult stopped = Run(scenario, "stopped");
+  EXPECT_EQ(stopped.exit_code, 130) << stopped.message;
+  EXPECT_FALSE(fs::exists(dir_ / "stopped"));
+  const LaunchResult next = Run(scenario, "next");
+  EXPECT_EQ(next.exit_code, 0) << next.message;
 }
 
 // Subscribers to a lockstep run's shared-memory bus from outside the run: one without the run's secret gets
