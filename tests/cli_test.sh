@@ -369,6 +369,47 @@ set -e
 [ $code -eq 2 ] || fail "regress with a bad suite exited $code: $(cat "$work/regress.out")"
 grep -q "suite.yaml:3" "$work/regress.out" || fail "regress error names no line: $(cat "$work/regress.out")"
 
+# the flights fly side by side (--jobs 2), each an `iapsim run` of its own, and are reported in the suite's
+# order; a flight that cannot be evaluated fails with the reason and the others still fly
+mkdir -p "$work/pair"
+cat > "$work/pair/suite.yaml" <<EOF
+flights:
+  spiral:
+    scenario: $src/configs/regression/three_star_spiral.yaml
+    max: {position_max_m: [1.0, 1.0, 1.0]}
+  hover:
+    scenario: $src/configs/scenarios/three_star_hover.yaml
+    max: {position_max_m: [1.0, 1.0, 1.0]}
+  circle:
+    scenario: $src/configs/regression/two_line_circle.yaml
+    max: {position_max_m: [1.0, 1.0, 0.0]}
+EOF
+set +e
+"$iapsim" regress "$work/pair" --fidelity ideal --jobs 2 --set duration_s=2 --out "$work/pair/out" > "$work/pair.out" 2>&1
+code=$?
+set -e
+[ $code -eq 1 ] || fail "regress of a failing pair exited $code: $(cat "$work/pair.out")"
+grep -q "^hover .*FAILED: the scenario has no evaluation section" "$work/pair.out" || fail "hover: $(cat "$work/pair.out")"
+grep -q "^circle .*position_max_m.z .*REGRESSION" "$work/pair.out" || fail "circle: $(cat "$work/pair.out")"
+[ "$(grep -E "^(spiral|hover|circle) " "$work/pair.out" | awk '!seen[$1]++ {print $1}' | tr '\n' ' ')" = "spiral hover circle " ] ||
+  fail "flights reported out of order: $(cat "$work/pair.out")"
+for flight in spiral circle; do
+  grep -q "^run complete: $work/pair/out/$flight" "$work/pair/out/$flight/iapsim.log" || fail "$flight: no log of its run"
+done
+# Ctrl-C stops every flight in the air and leaves no process behind
+"$iapsim" regress "$work/pair" --fidelity ideal --jobs 2 --only spiral --only circle --set duration_s=60 \
+  --out "$work/pair/stopped" > "$work/stopped.out" 2>&1 &
+regress=$!
+for _ in $(seq 100); do [ -e "$work/pair/stopped/circle/launcher.pid" ] && break; sleep 0.1; done
+kill -INT $regress
+wait_code $regress
+[ $code -eq 130 ] || fail "an interrupted regress exited $code: $(cat "$work/stopped.out")"
+for flight in spiral circle; do
+  pid=$(cat "$work/pair/stopped/$flight/launcher.pid")
+  ! kill -0 "$pid" 2> /dev/null || fail "$flight's launcher ($pid) outlived the interrupted regress"
+done
+! pgrep -f "$work/pair/stopped" > /dev/null || fail "processes of the interrupted regress remain: $(pgrep -af "$work/pair/stopped")"
+
 # Monte Carlo: seeded draws of a model mismatch, their percentiles and band plot, a bound on a percentile
 mkdir -p "$work/mc"
 cat > "$work/mc/suite.yaml" <<EOF
@@ -415,7 +456,7 @@ set -e
 grep -q "3 finished before, 0 to run" "$work/mc2.out" || fail "draws flown again: $(cat "$work/mc2.out")"
 diff <(grep -v '"plot"' "$work/mc/first.json") <(grep -v '"plot"' "$work/mc/out/spiral/metrics.json") > /dev/null ||
   fail "the resumed Monte Carlo differs: $(diff "$work/mc/first.json" "$work/mc/out/spiral/metrics.json")"
-expect_exit 2 "--monte-carlo" "$iapsim" regress "$work/mc" --jobs 2 --out "$work/mc/none"
+expect_exit 2 "--monte-carlo" "$iapsim" regress "$work/mc" --slurm --out "$work/mc/none"
 # other settings in the same --out: the draws are flown again, not taken from the folders of the same names
 set +e
 "$iapsim" regress "$work/mc" --monte-carlo 3 --out "$work/mc/out" --set processes.physics.params.uncertainty.mass=0.1 > "$work/mc3.out" 2>&1

@@ -52,13 +52,13 @@ Endpoints MakeEndpoints(std::string transport, int index) {
     return e;
   }
   if (transport == "shm") {
-    return {"shm://iapsim-bench-" + tag + "-parent", "shm://iapsim-bench-" + tag + "-child"};
+    return {"shm://iapsim-bench-" + tag + "-parent", "shm://iapsim-bench-" + tag + "-child", {}};
   }
   if (transport == "tcp") {
     const int port = 18000 + (getpid() % 2000) * 4 + index * 2;
-    return {"tcp://127.0.0.1:" + std::to_string(port), "tcp://127.0.0.1:" + std::to_string(port + 1)};
+    return {"tcp://127.0.0.1:" + std::to_string(port), "tcp://127.0.0.1:" + std::to_string(port + 1), {}};
   }
-  return {"ipc://@iapsim-bench-" + tag + "-parent", "ipc://@iapsim-bench-" + tag + "-child"};
+  return {"ipc://@iapsim-bench-" + tag + "-parent", "ipc://@iapsim-bench-" + tag + "-child", {}};
 }
 
 Bus MakeBusFor(const std::string& name, const std::string& bind, const std::string& peer,

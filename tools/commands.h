@@ -46,11 +46,12 @@ struct RegressArgs {
   int monte_carlo = 0;                 // draws per flight; 0: each flight once
   bool keep_bags = false;              // Monte Carlo: keep every draw's recording
   std::string fidelity;                // ideal | realistic | both; default both, Monte Carlo realistic
-  SweepExecution execution;            // Monte Carlo: the draws on the local pool (jobs) or on Slurm
+  SweepExecution execution;            // the flights (draws) on the local pool (jobs); draws on Slurm
 };
 /// Runs every regression flight of DIR/suite.yaml in lockstep, evaluates it, compares the metrics with the
 /// suite's thresholds and prints a table: each flight in the ideal profile against its `max`/`contact_*`
-/// bounds and in `fidelity: realistic` against its `realistic` bounds. With `monte_carlo` N, flies each N
+/// bounds and in `fidelity: realistic` against its `realistic` bounds; each an `iapsim run` child,
+/// `execution.jobs` at a time. With `monte_carlo` N, flies each N
 /// times (realistic unless told otherwise) with seeds 1..N and the suite's `monte_carlo.set` keys, and checks
 /// the 95th/5th percentiles of the metrics and the task success rate against the flights' `monte_carlo`
 /// bounds. Returns 1 on any regression, 2 on a bad suite, 130 interrupted.

@@ -129,7 +129,8 @@ int main(int argc, char** argv) {
                         "Monte Carlo: keep each draw's run.bag (by default deleted once evaluated)");
   regress_cmd
       ->add_option("--jobs,-j", regress.execution.jobs,
-                   "Monte Carlo: draws at a time (default: the cores; with --slurm: as the cluster allows)")
+                   "flights (Monte Carlo: draws) at a time (default: the cores; with --slurm: as the cluster "
+                   "allows)")
       ->check(CLI::Range(1, 1024));
   regress_cmd->add_flag(
       "--slurm", regress.execution.slurm,

@@ -1,11 +1,9 @@
-// `iapsim regress`: the regression flights of a suite (configs/regression/suite.yaml), each run in lockstep
-// and evaluated like `iapsim run` does, its metrics compared with the suite's upper bounds: once as written
-// (fidelity ideal) and once with `fidelity: realistic` (configs/profiles/realistic.yaml). With
-// `--monte-carlo N` each flight flies N seeds of the realistic profile (each a model-mismatch draw, its own
-// turbulence and sensor noise), and its metrics' percentiles and task success rate are compared with the
-// flight's `monte_carlo` bounds.
-
-#include <pthread.h>
+// `iapsim regress`: the regression flights of a suite (configs/regression/suite.yaml), each an `iapsim run`
+// in lockstep (evaluated as that command evaluates it; a few side by side), its metrics compared with the
+// suite's upper bounds: once as written (fidelity ideal) and once with `fidelity: realistic`
+// (configs/profiles/realistic.yaml). With `--monte-carlo N` each flight flies N seeds of the realistic
+// profile (each a model-mismatch draw, its own turbulence and sensor noise), and its metrics' percentiles and
+// task success rate are compared with the flight's `monte_carlo` bounds.
 
 #include <algorithm>
 #include <cmath>
@@ -17,14 +15,13 @@
 #include <iterator>
 #include <limits>
 #include <map>
-#include <memory>
-#include <thread>
 #include <tuple>
 
 #include "bridge/config.h"
 #include "bridge/launcher.h"
 #include "bridge/scenario.h"
 #include "tools/batch.h"
+#include "tools/child_run.h"
 #include "tools/commands.h"
 #include "tools/plot_script.h"
 #include "tools/run_evaluation.h"
@@ -186,56 +183,27 @@ struct FlightRun {
   nlohmann::json metrics;  // {tracking: ..., contact: ...}
 };
 
-void Fly(FlightRun* run, const fs::path& run_dir) {
-  bridge::LaunchOptions options;
-  options.scenario_path = run->flight->scenario;
-  options.overrides = run->overrides;
-  options.out_dir = run_dir.string();
-  options.bin_dir = bridge::ExecutableDir();
-  const bridge::LaunchResult result = bridge::Launch(options);
-  run->run_dir = result.run_dir.empty() ? options.out_dir : result.run_dir;
-  run->exit_code = result.exit_code;
-  if (result.exit_code != 0) run->error = result.message;
+// The sections a run's evaluation wrote into its metrics.json (not the processes' or the losses' counters).
+nlohmann::json EvaluationSections(const nlohmann::json& metrics) {
+  nlohmann::json sections = nlohmann::json::object();
+  if (!metrics.is_object()) return sections;
+  for (const auto& [key, value] : metrics.items()) {
+    if (value.is_object() && key != "processes" && key != "losses") sections[key] = value;
+  }
+  return sections;
 }
 
-// Evaluates a flown run (metrics and plots), printing nothing: it runs beside the next flight.
-void Evaluate(FlightRun* run) {
-  if (!run->error.empty()) return;
-  try {
-    const RunEvaluation evaluation =
-        ReadRunEvaluation(bridge::LoadScenario(run->flight->scenario, run->overrides));
-    if (evaluation.empty()) {
-      run->error = "the scenario has no evaluation section";
-      return;
-    }
-    run->metrics = EvaluateRun(run->run_dir, evaluation, /*print=*/false);
-  } catch (const std::exception& e) {
-    run->error = e.what();
+// What a flight's `iapsim run` left: its exit, and its evaluation's metrics.
+void Landed(FlightRun* run, const ChildExit& exit) {
+  run->exit_code = exit.exit_code;
+  if (exit.exit_code != 0) {
+    run->error =
+        exit.reason.empty() ? "iapsim run exited with " + std::to_string(exit.exit_code) : exit.reason;
+    return;
   }
+  std::ifstream in(fs::path(run->run_dir) / "metrics.json");
+  run->metrics = EvaluationSections(nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false));
 }
-
-// A thread that evaluates one run while the launcher flies the next: evaluating (reading the bag, the plots'
-// Python) is a third of a flight's time, and the lockstep run leaves part of the cores to it (its waiting
-// processes spin only while nothing else wants the core: bridge/bus.cc). SIGINT and SIGTERM stay with the
-// launcher's thread.
-class BackgroundEvaluation {
- public:
-  explicit BackgroundEvaluation(FlightRun* run) {
-    sigset_t launcher_signals, previous;
-    sigemptyset(&launcher_signals);
-    sigaddset(&launcher_signals, SIGINT);
-    sigaddset(&launcher_signals, SIGTERM);
-    pthread_sigmask(SIG_BLOCK, &launcher_signals, &previous);
-    thread_ = std::thread(Evaluate, run);
-    pthread_sigmask(SIG_SETMASK, &previous, nullptr);
-  }
-  BackgroundEvaluation(const BackgroundEvaluation&) = delete;
-  BackgroundEvaluation& operator=(const BackgroundEvaluation&) = delete;
-  ~BackgroundEvaluation() { thread_.join(); }
-
- private:
-  std::thread thread_;
-};
 
 // A metric's value, NaN when the evaluation did not produce it or it is null (an axis never settled).
 double Value(const nlohmann::json& metrics, const Bound& bound) {
@@ -290,46 +258,63 @@ int Report(const FlightRun& run, nlohmann::json* report) {
 }
 
 // Each flight once in each of `profiles`, its metrics against the bounds of that profile. A realistic run
-// is named <flight>-realistic (its folder, its rows and its entry in the report). A run is evaluated while
-// the next one flies, and reported (in order) once that one has landed.
+// is named <flight>-realistic (its folder, its rows and its entry in the report). The runs fly as `iapsim
+// run` children, `jobs` at a time (each evaluates itself, as it would alone), and are reported in order.
 int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::string>& profiles,
-                const std::vector<std::string>& overrides, const fs::path& out_dir, nlohmann::json* report,
-                bool* interrupted) {
-  std::vector<std::unique_ptr<FlightRun>> runs;
+                const std::vector<std::string>& overrides, int jobs, const fs::path& out_dir,
+                nlohmann::json* report, bool* interrupted) {
+  std::vector<FlightRun> runs;
+  std::vector<ChildRun> children;
   for (const Flight& flight : flights) {
     for (const std::string& profile : profiles) {
-      auto run = std::make_unique<FlightRun>();
-      run->flight = &flight;
-      run->profile = profile;
-      run->ideal = profile == "ideal";
-      run->name = run->ideal ? flight.name : flight.name + "-" + profile;
-      run->overrides = overrides;
-      run->overrides.insert(run->overrides.begin(), "fidelity=" + profile);  // --set may still change it
-      if (!run->ideal && flight.realistic_seed != 0) {
-        run->overrides.insert(run->overrides.begin() + 1, "seed=" + std::to_string(flight.realistic_seed));
+      FlightRun run;
+      run.flight = &flight;
+      run.profile = profile;
+      run.ideal = profile == "ideal";
+      run.name = run.ideal ? flight.name : flight.name + "-" + profile;
+      run.overrides = overrides;
+      run.overrides.insert(run.overrides.begin(), "fidelity=" + profile);  // --set may still change it
+      if (!run.ideal && flight.realistic_seed != 0) {
+        run.overrides.insert(run.overrides.begin() + 1, "seed=" + std::to_string(flight.realistic_seed));
       }
-      runs.push_back(std::move(run));
+      run.run_dir = (out_dir / run.name).string();
+      runs.push_back(run);
     }
   }
-  int failures = 0;
-  std::printf("%-28s %-40s %12s %14s  %s\n", "flight", "metric", "value", "bound", "result");
-  std::unique_ptr<BackgroundEvaluation> evaluating;  // of runs[i - 1] while runs[i] flies
+  std::vector<size_t> flown;  // the runs whose scenario can be evaluated; the others fail before flying
   for (size_t i = 0; i < runs.size(); ++i) {
-    Fly(runs[i].get(), out_dir / runs[i]->name);
-    if (evaluating) {
-      evaluating.reset();  // joins
-      failures += Report(*runs[i - 1], report);
+    FlightRun& run = runs[i];
+    try {
+      if (ReadRunEvaluation(bridge::LoadScenario(run.flight->scenario, run.overrides)).empty()) {
+        run.error = "the scenario has no evaluation section";
+      }
+    } catch (const bridge::ConfigError& e) {
+      run.error = std::string("invalid configuration: ") + e.what();
     }
-    if (runs[i]->exit_code == 130) {
-      failures += Report(*runs[i], report);
-      return *interrupted = true, failures;
-    }
-    evaluating = std::make_unique<BackgroundEvaluation>(runs[i].get());
+    if (!run.error.empty()) continue;
+    fs::remove_all(run.run_dir);  // an earlier regress's run, with the same --out
+    fs::create_directories(run.run_dir);
+    flown.push_back(i);
+    children.push_back(ChildRun{run.flight->scenario, run.overrides, run.run_dir});
   }
-  if (evaluating) {
-    evaluating.reset();
-    failures += Report(*runs.back(), report);
-  }
+  std::vector<bool> landed(runs.size());  // or failed before flying
+  for (size_t i = 0; i < runs.size(); ++i) landed[i] = !runs[i].error.empty();
+  int failures = 0;
+  size_t reported = 0;
+  const auto report_landed = [&] {
+    for (; reported < runs.size() && landed[reported]; ++reported) failures += Report(runs[reported], report);
+  };
+  std::printf("%-28s %-40s %12s %14s  %s\n", "flight", "metric", "value", "bound", "result");
+  report_landed();
+  const InterruptFlag interrupt;
+  RunChildren(children, jobs, InterruptFlag::raised, [&](size_t c, const ChildExit& exit) {
+    FlightRun& run = runs[flown[c]];
+    Landed(&run, exit);
+    if (exit.exit_code == 130) InterruptFlag::raised = 1;  // stopped on its own: the others stop too
+    landed[flown[c]] = true;
+    report_landed();
+  });
+  *interrupted = InterruptFlag::raised != 0;
   return failures;
 }
 
@@ -396,13 +381,9 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
         ++failures;
         continue;
       }
-      // the evaluations' sections of its metrics.json (not the processes' counters)
-      nlohmann::json run_metrics = nlohmann::json::object();
-      for (const auto& [key, value] : outcome.metrics.items()) {
-        if (value.is_object() && key != "processes" && key != "losses") run_metrics[key] = value;
-      }
+      const nlohmann::json run_metrics = EvaluationSections(outcome.metrics);
       if (run_metrics.contains("tracking")) {  // a line a draw: its largest errors per axis
-        const nlohmann::json& tracking = run_metrics["tracking"];
+        const nlohmann::json& tracking = run_metrics.at("tracking");
         std::string line;
         using Axes = std::vector<std::string>;
         for (const auto& [section, axes, unit] :
@@ -492,9 +473,9 @@ int Regress(const RegressArgs& args) {
   // the profile, then the suite's Monte Carlo settings, so the command line's --set wins
   std::vector<std::string> overrides{"mode=lockstep"};
   const std::string monte_carlo_fidelity = args.fidelity.empty() ? "realistic" : args.fidelity;
-  if (args.monte_carlo == 0 && (args.execution.slurm || args.execution.jobs > 0)) {
-    std::cerr << "iapsim: --jobs and --slurm spread the draws of --monte-carlo N; without it the flights fly "
-                 "one after the other"
+  if (args.monte_carlo == 0 && args.execution.slurm) {
+    std::cerr << "iapsim: --slurm spreads the draws of --monte-carlo N; without it the flights fly on this "
+                 "machine"
               << std::endl;
     return 2;
   }
@@ -516,7 +497,8 @@ int Regress(const RegressArgs& args) {
   const int failures = args.monte_carlo > 0
                            ? RegressMonteCarlo(flights, overrides, monte_carlo_fidelity, args.monte_carlo,
                                                args.keep_bags, args.execution, out_dir, &report, &interrupted)
-                           : RegressOnce(flights, profiles, overrides, out_dir, &report, &interrupted);
+                           : RegressOnce(flights, profiles, overrides, LocalJobs(args.execution.jobs),
+                                         out_dir, &report, &interrupted);
   const fs::path report_path = out_dir / "regress.json";
   std::ofstream(report_path) << report.dump(2) << "\n";
   if (interrupted) {

@@ -1,7 +1,5 @@
 #include "tools/sweep.h"
 
-#include <fcntl.h>
-#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
@@ -27,6 +25,7 @@
 #include "bridge/launcher.h"
 #include "bridge/scenario.h"
 #include "tools/batch.h"
+#include "tools/child_run.h"
 #include "tools/plot_script.h"
 
 namespace iapsim::tools {
@@ -130,22 +129,6 @@ std::string StatusOf(int exit_code) {
   }
 }
 
-// why a run failed, from the end of its output: `iapsim run`'s own error line if there is one
-std::string ReasonFromLog(const fs::path& log) {
-  std::ifstream in(log);
-  std::string line, last, error;
-  while (std::getline(in, line)) {
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    last = line;
-    if (line.rfind("iapsim: ", 0) == 0 && line.rfind("iapsim: partial outputs", 0) != 0)
-      error = line.substr(8);
-  }
-  return error.empty() ? last : error;
-}
-
-volatile std::sig_atomic_t interrupted = 0;
-extern "C" void OnSweepInterrupt(int) { interrupted = 1; }
-
 nlohmann::json OutcomeJson(const SweepRun& run, const SweepOutcome& outcome) {
   nlohmann::json values = nlohmann::json::object();
   for (const auto& [key, value] : run.values) values[key] = value;
@@ -188,35 +171,6 @@ void WriteJsonAtomically(const fs::path& path, const nlohmann::json& json) {
   fs::rename(part, path);
 }
 
-// Starts `iapsim run` for `run` in `run_dir`, its output in run_dir/iapsim.log. The child stops (SIGINT: it
-// ends its graph cleanly) if the sweep dies.
-pid_t StartRun(const std::string& scenario, const SweepRun& run, const fs::path& run_dir) {
-  const std::string program = bridge::ExecutableDir() + "/iapsim";
-  std::vector<std::string> args = {program, "run", scenario, "--out", run_dir.string()};
-  for (const std::string& o : run.overrides) {
-    args.push_back("--set");
-    args.push_back(o);
-  }
-  const std::string log = (run_dir / "iapsim.log").string();
-  const pid_t parent = getpid();
-  const pid_t pid = fork();
-  if (pid != 0) return pid;
-  prctl(PR_SET_PDEATHSIG, SIGINT);
-  if (getppid() != parent) _exit(130);
-  const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  if (fd >= 0) {
-    dup2(fd, STDOUT_FILENO);
-    dup2(fd, STDERR_FILENO);
-    close(fd);
-  }
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  execv(program.c_str(), argv.data());
-  std::fprintf(stderr, "iapsim: cannot start %s: %s\n", program.c_str(), std::strerror(errno));
-  _exit(127);
-}
-
 std::string Describe(const SweepRun& run) {
   std::string text;
   for (const auto& [key, value] : run.values) text += (text.empty() ? "" : " ") + key + "=" + value;
@@ -226,21 +180,13 @@ std::string Describe(const SweepRun& run) {
 
 // A run that ended with wait status `status`: its outcome from its exit code, its log and its metrics.json,
 // recorded in RUN/sweep_run.json (what --resume, and a --slurm sweep waiting for its tasks, read)
-SweepOutcome EndRun(const SweepRun& run, const fs::path& run_dir, int status, double wall_s, bool keep_bags) {
+SweepOutcome EndRun(const SweepRun& run, const fs::path& run_dir, const ChildExit& exit, bool keep_bags) {
   SweepOutcome outcome;
   outcome.done = true;
-  outcome.wall_s = wall_s;
-  if (WIFEXITED(status)) {
-    outcome.exit_code = WEXITSTATUS(status);
-    outcome.status = StatusOf(outcome.exit_code);
-    if (!outcome.Finished()) outcome.reason = ReasonFromLog(run_dir / "iapsim.log");
-  } else {
-    const int signal = WTERMSIG(status);
-    outcome.exit_code = 128 + signal;
-    outcome.status = StatusOf(outcome.exit_code);  // SIGINT before its handler was set: interrupted
-    outcome.reason =
-        std::string("killed by signal ") + std::to_string(signal) + " (" + strsignal(signal) + ")";
-  }
+  outcome.wall_s = exit.wall_s;
+  outcome.exit_code = exit.exit_code;
+  outcome.status = StatusOf(exit.exit_code);  // SIGINT before its handler was set: interrupted
+  if (!outcome.Finished()) outcome.reason = exit.reason;
   if (outcome.Finished()) {
     std::ifstream metrics(run_dir / "metrics.json");
     outcome.metrics = nlohmann::json::parse(metrics, nullptr, false);
@@ -659,43 +605,15 @@ nlohmann::json SweepRecord(const SweepState& state, const std::string& backend) 
 
 // `pending` on this machine, `jobs` at a time, each a child `iapsim run`
 void RunLocalPool(SweepState& state, const std::vector<size_t>& pending, int jobs) {
-  struct Running {
-    size_t run;
-    Clock::time_point start;
-  };
-  std::map<pid_t, Running> running;
-  size_t next = 0;
-  bool forwarded = false;
-  while (next < pending.size() || !running.empty()) {
-    while (!interrupted && next < pending.size() && static_cast<int>(running.size()) < jobs) {
-      const SweepRun& run = state.runs[pending[next++]];
-      const fs::path run_dir = state.dir / run.dir;
-      const pid_t pid = StartRun(state.spec.scenario, run, run_dir);
-      if (pid < 0) {
-        state.End(run,
-                  SweepOutcome{true, 1, "failed", std::string("fork: ") + std::strerror(errno), 0.0, {}});
-        continue;
-      }
-      running[pid] = Running{run.index, Clock::now()};
-    }
-    if (interrupted && !forwarded) {  // the terminal's Ctrl-C reached them too; a kill of the sweep did not
-      for (const auto& [pid, r] : running) kill(pid, SIGINT);
-      forwarded = true;
-    }
-    if (running.empty()) break;
-    int status = 0;
-    const pid_t pid = waitpid(-1, &status, 0);
-    if (pid < 0) {
-      if (errno == EINTR) continue;
-      break;
-    }
-    const auto it = running.find(pid);
-    if (it == running.end()) continue;
-    const SweepRun& run = state.runs[it->second.run];
-    const double wall_s = std::chrono::duration<double>(Clock::now() - it->second.start).count();
-    running.erase(it);
-    state.End(run, EndRun(run, state.dir / run.dir, status, wall_s, state.spec.keep_bags));
+  std::vector<ChildRun> children;
+  for (const size_t r : pending) {
+    const SweepRun& run = state.runs[r];
+    children.push_back(ChildRun{state.spec.scenario, run.overrides, state.dir / run.dir});
   }
+  RunChildren(children, jobs, InterruptFlag::raised, [&](size_t i, const ChildExit& exit) {
+    const SweepRun& run = state.runs[pending[i]];
+    state.End(run, EndRun(run, children[i].dir, exit, state.spec.keep_bags));
+  });
 }
 
 // `pending` as the tasks of one Slurm job array, each `iapsim sweep-task DIR ID`; waits for the array, taking
@@ -745,7 +663,7 @@ bool RunOnSlurm(SweepState& state, const std::vector<size_t>& pending, const Slu
   while (true) {
     take_outcomes();
     if (waiting.empty()) return true;
-    if (interrupted && !cancelled) {
+    if (InterruptFlag::raised && !cancelled) {
       std::printf("interrupted: cancelling Slurm job %s\n", job.c_str());
       std::fflush(stdout);
       // first the mark, then the signals: a task that starts between them, and so misses them, sees it
@@ -814,8 +732,7 @@ std::vector<SweepOutcome> RunSweep(const SweepSpec& spec, const std::vector<Swee
   // written before any run starts: a sweep killed outright can be resumed, and the Slurm tasks read it
   WriteJsonAtomically(dir / "sweep.json", SweepRecord(state, backend));
 
-  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const int jobs = how.jobs > 0 ? how.jobs : cores;
+  const int jobs = LocalJobs(how.jobs);
   SlurmOptions slurm = how.slurm_options;
   slurm.max_running = how.jobs;  // on Slurm, a limit only when asked: the cluster decides otherwise
   std::printf("sweep %s: %zu runs of %s in %s; %zu finished before, %zu to run, ", spec.name.c_str(),
@@ -829,24 +746,18 @@ std::vector<SweepOutcome> RunSweep(const SweepSpec& spec, const std::vector<Swee
   }
   std::fflush(stdout);
 
-  struct sigaction action {};
-  action.sa_handler = OnSweepInterrupt;  // no SA_RESTART: waitpid returns at once
-  struct sigaction previous_int {
-  }, previous_term{};
-  sigaction(SIGINT, &action, &previous_int);
-  sigaction(SIGTERM, &action, &previous_term);
-  interrupted = 0;
   *submitted = true;
-  if (!pending.empty()) {
-    if (how.slurm) {
-      *submitted = RunOnSlurm(state, pending, slurm);
-    } else {
-      RunLocalPool(state, pending, jobs);
+  {
+    const InterruptFlag interrupt;
+    if (!pending.empty()) {
+      if (how.slurm) {
+        *submitted = RunOnSlurm(state, pending, slurm);
+      } else {
+        RunLocalPool(state, pending, jobs);
+      }
     }
+    *was_interrupted = InterruptFlag::raised != 0;
   }
-  sigaction(SIGINT, &previous_int, nullptr);
-  sigaction(SIGTERM, &previous_term, nullptr);
-  *was_interrupted = interrupted != 0;
   WriteJsonAtomically(dir / "sweep.json", SweepRecord(state, backend));
   return outcomes;
 }
@@ -956,7 +867,7 @@ int SweepTask(const std::string& dir, const std::string& id) {
     return outcome.exit_code;
   }
   const Clock::time_point start = Clock::now();
-  const pid_t pid = StartRun(sweep["scenario"].get<std::string>(), run, run_dir);
+  const pid_t pid = StartChildRun(ChildRun{sweep["scenario"].get<std::string>(), run.overrides, run_dir});
   if (pid < 0) {
     std::cerr << "iapsim sweep-task: fork: " << std::strerror(errno) << std::endl;
     return 1;
@@ -971,7 +882,8 @@ int SweepTask(const std::string& dir, const std::string& id) {
     }
   }
   const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
-  const SweepOutcome outcome = EndRun(run, run_dir, status, wall_s, sweep.value("keep_bags", true));
+  const SweepOutcome outcome =
+      EndRun(run, run_dir, ChildExitOf(status, run_dir, wall_s), sweep.value("keep_bags", true));
   PrintEnded(1, 1, run, outcome);
   return outcome.exit_code;
 }
