@@ -203,6 +203,18 @@ void ApplyFidelityProfile(YAML::Node root, const std::string& scenario_path, std
     for (auto process : scenario_processes) {
       if (!process.second.IsMap() || !process.second["exec"] || process.second["exec"].Scalar() != exec)
         continue;
+      // orderings compose: the profile's (a controller reading the sensors' odometry of its step) add to
+      // the scenario's own (the same controller reading a replayer's commands), they do not give way
+      for (const char* order : {"after", "after_previous"}) {
+        YAML::Node mine = process.second[order];
+        if (!keys[order] || !keys[order].IsSequence() || !mine.IsSequence()) continue;
+        for (const auto& peer : keys[order]) {
+          if (std::none_of(mine.begin(), mine.end(),
+                           [&](const YAML::Node& n) { return n.Scalar() == peer.Scalar(); })) {
+            mine.push_back(peer.Scalar());
+          }
+        }
+      }
       FillMissing(process.second, keys);
       found_execs.insert(exec);
     }

@@ -56,6 +56,19 @@ TEST(FidelityProfile, RealisticFillsWhatTheScenarioLeavesOutAndTheScenarioWins) 
   EXPECT_EQ(scenario.resolved["fidelity"].as<std::string>(), "realistic");
 }
 
+// Orderings compose: the pilot log's controller waits for its replayer as written, and in the realistic
+// profile for the sensors' odometry too (the scenario's list used to win, and the odometry then came at k or
+// k + 1 by chance).
+TEST(FidelityProfile, AProfilesOrderingAddsToTheScenarios) {
+  const std::string pilot = kRegression + "three_square_pilot_log.yaml";
+  EXPECT_EQ(LoadScenario(pilot).Find("control")->after, std::vector<std::string>{"replayer"});
+  EXPECT_EQ(LoadScenario(pilot, {"fidelity=realistic"}).Find("control")->after,
+            (std::vector<std::string>{"replayer", "sensors"}));
+  const Scenario twice = LoadScenario(kRegression + "three_star_spiral.yaml",
+                                      {"fidelity=realistic", "processes.control.after=[sensors]"});
+  EXPECT_EQ(twice.Find("control")->after, std::vector<std::string>{"sensors"});
+}
+
 TEST(FidelityProfile, ARequiredProcessMissingOrAnUnknownProfileIsAnErrorNamingTheKey) {
   const std::string hover = std::string(IAPSIM_SOURCE_DIR) + "/configs/scenarios/three_star_hover.yaml";
   const std::string missing = ErrorOf(hover, {"fidelity=realistic"});
