@@ -393,20 +393,28 @@ grep -q "^hover .*FAILED: the scenario has no evaluation section" "$work/pair.ou
 grep -q "^circle .*position_max_m.z .*REGRESSION" "$work/pair.out" || fail "circle: $(cat "$work/pair.out")"
 [ "$(grep -E "^(spiral|hover|circle) " "$work/pair.out" | awk '!seen[$1]++ {print $1}' | tr '\n' ' ')" = "spiral hover circle " ] ||
   fail "flights reported out of order: $(cat "$work/pair.out")"
-for flight in spiral circle; do
+for flight in spiral circle; do  # plotted by regress's one plot server (IAPSIM_PLOT_SOCKET)
   grep -q "^run complete: $work/pair/out/$flight" "$work/pair/out/$flight/iapsim.log" || fail "$flight: no log of its run"
+  [ -s "$work/pair/out/$flight/tracking_pose.png" ] || fail "$flight: no plot: $(cat "$work/pair/out/$flight/iapsim.log")"
 done
+# a plot server that is not there: the run plots with its own
+IAPSIM_PLOT_SOCKET=$work/no/socket "$iapsim" run "$src/configs/regression/two_line_circle.yaml" --duration 1 \
+  --out "$work/own_plots" > "$work/own_plots.out" 2>&1 || fail "run with no plot server: $(cat "$work/own_plots.out")"
+[ -s "$work/own_plots/tracking_pose.png" ] || fail "no plot without a plot server: $(cat "$work/own_plots.out")"
 # Ctrl-C stops every flight in the air and leaves no process behind
 "$iapsim" regress "$work/pair" --fidelity ideal --jobs 2 --only spiral --only circle --set duration_s=60 \
   --out "$work/pair/stopped" > "$work/stopped.out" 2>&1 &
 regress=$!
-for _ in $(seq 100); do [ -e "$work/pair/stopped/circle/launcher.pid" ] && break; sleep 0.1; done
+for _ in $(seq 100); do
+  [ -s "$work/pair/stopped/spiral/launcher.pid" ] && [ -s "$work/pair/stopped/circle/launcher.pid" ] && break
+  sleep 0.1
+done
+launchers="$(cat "$work/pair/stopped/spiral/launcher.pid") $(cat "$work/pair/stopped/circle/launcher.pid")"
 kill -INT $regress
 wait_code $regress
 [ $code -eq 130 ] || fail "an interrupted regress exited $code: $(cat "$work/stopped.out")"
-for flight in spiral circle; do
-  pid=$(cat "$work/pair/stopped/$flight/launcher.pid")
-  ! kill -0 "$pid" 2> /dev/null || fail "$flight's launcher ($pid) outlived the interrupted regress"
+for pid in $launchers; do
+  ! kill -0 "$pid" 2> /dev/null || fail "a flight's launcher ($pid) outlived the interrupted regress"
 done
 ! pgrep -f "$work/pair/stopped" > /dev/null || fail "processes of the interrupted regress remain: $(pgrep -af "$work/pair/stopped")"
 

@@ -1,13 +1,17 @@
 #include "tools/plot_script.h"
 
+#include <fcntl.h>
 #include <spawn.h>
 #include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -18,30 +22,104 @@ extern char** environ;
 namespace iapsim::tools {
 namespace {
 
+constexpr const char* kSharedSocketVariable = "IAPSIM_PLOT_SOCKET";
+
+bool SendAll(int fd, const std::string& line) {
+  size_t sent = 0;
+  while (sent < line.size()) {
+    const ssize_t n = send(fd, line.data() + sent, line.size() - sent, MSG_NOSIGNAL);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    sent += static_cast<size_t>(n);
+  }
+  return true;
+}
+
+// One line from `fd`, what came after it kept in `buffer`.
+bool ReadLine(int fd, std::string* buffer, std::string* line) {
+  size_t end;
+  while ((end = buffer->find('\n')) == std::string::npos) {
+    char chunk[4096];
+    const ssize_t n = read(fd, chunk, sizeof chunk);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    buffer->append(chunk, static_cast<size_t>(n));
+  }
+  *line = buffer->substr(0, end);
+  buffer->erase(0, end + 1);
+  return true;
+}
+
+std::string JobLine(const std::string& script, const std::vector<std::string>& args) {
+  nlohmann::json job = nlohmann::json::array({script});
+  for (const auto& arg : args) job.push_back(arg);
+  return job.dump() + "\n";
+}
+
+bool Succeeded(const std::string& script, const std::string& reply) {
+  if (reply == "ok") return true;
+  std::fprintf(stderr, "iapsim: %s failed (%s); the metrics are complete\n", script.c_str(), reply.c_str());
+  return false;
+}
+
+// Runs the job on the server a SharedPlotServer of the program that started this one listens on; false
+// (`reply` empty) when it cannot be reached.
+bool RunShared(const char* socket_path, const std::string& line, std::string* reply) {
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  if (std::strlen(socket_path) >= sizeof address.sun_path) return false;
+  std::strcpy(address.sun_path, socket_path);
+  const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return false;
+  std::string buffer;
+  const bool answered = connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0 &&
+                        SendAll(fd, line) && ReadLine(fd, &buffer, reply);
+  close(fd);
+  return answered;
+}
+
+// Starts tools/plot_server.py with `argv_tail` after the script's path, its stdin and stdout the given
+// descriptors (and `listener` as itself where it is not -1); -1 when it cannot start.
+pid_t StartServer(int stdin_fd, int stdout_fd, int listener, const std::vector<std::string>& argv_tail) {
+  const std::string python = std::ifstream("/usr/bin/python3").good() ? "/usr/bin/python3" : "python3";
+  std::vector<std::string> words = {python, IAPSIM_PLOT_SERVER};
+  words.insert(words.end(), argv_tail.begin(), argv_tail.end());
+  std::vector<char*> argv;
+  for (std::string& word : words) argv.push_back(word.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, stdin_fd, STDIN_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, stdout_fd, STDOUT_FILENO);
+  if (listener >= 0) posix_spawn_file_actions_adddup2(&actions, listener, listener);  // clears CLOEXEC
+  const UnblockedSignalsSpawn attributes;
+  pid_t pid = -1;
+  const int spawned = posix_spawnp(&pid, python.c_str(), &actions, attributes.get(), argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) {
+    std::fprintf(stderr, "iapsim: cannot start %s for %s: %s\n", python.c_str(), IAPSIM_PLOT_SERVER,
+                 std::strerror(spawned));
+    return -1;
+  }
+  return pid;
+}
+
 // tools/plot_server.py behind a socket pair (its stdin and stdout), started on the first plot and ended
 // (end of input, then reaped) when the program exits; a server that died is started again for the next plot
 class PlotServer {
  public:
   ~PlotServer() { Stop(); }
 
-  bool Run(const std::string& script, const std::vector<std::string>& args) {
+  bool Run(const std::string& script, const std::string& line) {
     if (fd_ < 0 && !Start()) return false;
-    nlohmann::json job = nlohmann::json::array({script});
-    for (const auto& arg : args) job.push_back(arg);
-    const std::string line = job.dump() + "\n";
     std::string reply;
-    if (!Send(line) || !ReadLine(&reply)) {
+    if (!SendAll(fd_, line) || !ReadLine(fd_, &buffer_, &reply)) {
       std::fprintf(stderr, "iapsim: the plot server (%s) stopped while plotting %s\n", IAPSIM_PLOT_SERVER,
                    script.c_str());
       Stop();
       return false;
     }
-    if (reply != "ok") {
-      std::fprintf(stderr, "iapsim: %s failed (%s); the metrics are complete\n", script.c_str(),
-                   reply.c_str());
-      return false;
-    }
-    return true;
+    return Succeeded(script, reply);
   }
 
  private:
@@ -51,22 +129,10 @@ class PlotServer {
       std::fprintf(stderr, "iapsim: cannot make the plot server's socket: %s\n", std::strerror(errno));
       return false;
     }
-    const std::string python = std::ifstream("/usr/bin/python3").good() ? "/usr/bin/python3" : "python3";
-    std::string server = IAPSIM_PLOT_SERVER;
-    char* argv[] = {const_cast<char*>(python.c_str()), server.data(), nullptr};
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_adddup2(&actions, fds[1], STDIN_FILENO);
-    posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-    const UnblockedSignalsSpawn attributes;
-    const int spawned = posix_spawnp(&pid_, python.c_str(), &actions, attributes.get(), argv, environ);
-    posix_spawn_file_actions_destroy(&actions);
+    pid_ = StartServer(fds[1], fds[1], -1, {});
     close(fds[1]);
-    if (spawned != 0) {
-      std::fprintf(stderr, "iapsim: cannot start %s for %s: %s\n", python.c_str(), IAPSIM_PLOT_SERVER,
-                   std::strerror(spawned));
+    if (pid_ < 0) {
       close(fds[0]);
-      pid_ = -1;
       return false;
     }
     fd_ = fds[0];
@@ -81,31 +147,6 @@ class PlotServer {
     buffer_.clear();
   }
 
-  bool Send(const std::string& line) {
-    size_t sent = 0;
-    while (sent < line.size()) {
-      const ssize_t n = send(fd_, line.data() + sent, line.size() - sent, MSG_NOSIGNAL);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) return false;
-      sent += static_cast<size_t>(n);
-    }
-    return true;
-  }
-
-  bool ReadLine(std::string* line) {
-    size_t end;
-    while ((end = buffer_.find('\n')) == std::string::npos) {
-      char chunk[4096];
-      const ssize_t n = read(fd_, chunk, sizeof chunk);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) return false;
-      buffer_.append(chunk, static_cast<size_t>(n));
-    }
-    *line = buffer_.substr(0, end);
-    buffer_.erase(0, end + 1);
-    return true;
-  }
-
   int fd_ = -1;
   pid_t pid_ = -1;
   std::string buffer_;
@@ -114,8 +155,48 @@ class PlotServer {
 }  // namespace
 
 bool RunPlotScript(const std::string& script, const std::vector<std::string>& args) {
-  static PlotServer server;
-  return server.Run(script, args);
+  const std::string line = JobLine(script, args);
+  if (const char* shared = std::getenv(kSharedSocketVariable)) {
+    std::string reply;
+    if (RunShared(shared, line, &reply)) return Succeeded(script, reply);
+  }
+  static PlotServer server;  // no shared one, or it is gone
+  return server.Run(script, line);
+}
+
+SharedPlotServer::SharedPlotServer() {
+  if (std::getenv(kSharedSocketVariable) != nullptr) return;  // one serves already: an enclosing one's
+  char dir[] = "/tmp/iapsim-plots-XXXXXX";
+  if (mkdtemp(dir) == nullptr) return;  // each run then starts its own
+  dir_ = dir;
+  const std::string path = dir_ + "/socket";
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::strcpy(address.sun_path, path.c_str());
+  int input[2] = {-1, -1};
+  const int listener = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  // listening before the server starts: a run that plots before Python is up waits in the backlog
+  if (listener >= 0 && bind(listener, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0 &&
+      listen(listener, 64) == 0 && pipe2(input, O_CLOEXEC) == 0) {
+    pid_ = StartServer(input[0], STDERR_FILENO, listener, {"--listen-fd", std::to_string(listener)});
+  }
+  if (listener >= 0) close(listener);
+  if (input[0] >= 0) close(input[0]);
+  if (pid_ > 0) {
+    input_ = input[1];
+    setenv(kSharedSocketVariable, path.c_str(), 1);
+  } else if (input[1] >= 0) {
+    close(input[1]);
+  }
+}
+
+SharedPlotServer::~SharedPlotServer() {
+  if (pid_ > 0) {
+    unsetenv(kSharedSocketVariable);
+    close(input_);  // end of its stdin: it returns once the plot in hand is done
+    waitpid(pid_, nullptr, 0);
+  }
+  if (!dir_.empty()) std::filesystem::remove_all(dir_);
 }
 
 }  // namespace iapsim::tools

@@ -1,6 +1,8 @@
 #pragma once
 // Runs one of the project's matplotlib scripts (tools/plot_*.py) on an evaluation's CSV.
 
+#include <sys/types.h>
+
 #include <string>
 #include <vector>
 
@@ -11,5 +13,23 @@ namespace iapsim::tools {
 /// given (tools/plot_server.py): a batch of plots imports matplotlib once. Returns false, after printing why
 /// on stderr, when the script failed or Python could not start: the metrics stay complete.
 bool RunPlotScript(const std::string& script, const std::vector<std::string>& args);
+
+/// While it lives, the programs this one starts (the runs `iapsim regress` and `iapsim sweep` fly, each an
+/// `iapsim run`) and this one plot through one Python of its own, over a unix socket named to them by
+/// IAPSIM_PLOT_SOCKET, instead of each starting Python and importing matplotlib (0.5 s a run); its plots are
+/// made one at a time. Where it cannot start, or dies, each program plots with its own as before; where one
+/// is in place already (an enclosing one, or the starting program's), it does nothing.
+class SharedPlotServer {
+ public:
+  SharedPlotServer();
+  ~SharedPlotServer();
+  SharedPlotServer(const SharedPlotServer&) = delete;
+  SharedPlotServer& operator=(const SharedPlotServer&) = delete;
+
+ private:
+  std::string dir_;  // of the socket
+  pid_t pid_ = -1;
+  int input_ = -1;  // its stdin: closed, it ends
+};
 
 }  // namespace iapsim::tools

@@ -4,10 +4,17 @@ plots (`iapsim regress`: two or three a flight) pays for starting Python and imp
 
 Protocol, one job a line on stdin: a JSON list [SCRIPT, ARG...]; for each, one line on stdout: "ok", or
 "error " and why. The script runs as __main__ with sys.argv = [SCRIPT, ARG...]. Ends at end of input.
+
+With --listen-fd N it serves the same jobs on connections to the listening unix socket N instead, one
+connection at a time (each its jobs, one reply a line): the runs that `iapsim regress` and `iapsim sweep` fly
+side by side share it (tools/plot_script.h, SharedPlotServer); it ends at the end of stdin, when the program
+that started it closes its end or dies.
 """
 import contextlib
 import json
 import runpy
+import select
+import socket
 import sys
 import traceback
 
@@ -32,18 +39,43 @@ def run(job):
         plt.close("all")
 
 
-def main():
-    for line in sys.stdin:
+def reply_to(line):
+    try:
+        job = json.loads(line)
+    except json.JSONDecodeError as e:
+        return f"error not a JSON job: {e}"
+    return run(job) if isinstance(job, list) and job else "error a job is [SCRIPT, ARG...]"
+
+
+def serve(lines, out):
+    for line in lines:
         if not line.strip():
             continue
-        try:
-            job = json.loads(line)
-        except json.JSONDecodeError as e:
-            reply = f"error not a JSON job: {e}"
-        else:
-            reply = run(job) if isinstance(job, list) and job else "error a job is [SCRIPT, ARG...]"
+        reply = reply_to(line)
         sys.stderr.flush()
-        print(reply, flush=True)
+        out.write(reply + "\n")
+        out.flush()
+
+
+def serve_connections(listener):
+    while True:
+        ready, _, _ = select.select([listener, sys.stdin], [], [])
+        if sys.stdin in ready and not sys.stdin.readline():
+            return  # the program that started this one is done, or gone
+        if listener in ready:
+            connection, _ = listener.accept()
+            with connection, connection.makefile("r") as lines, connection.makefile("w") as out:
+                try:
+                    serve(lines, out)
+                except OSError:  # the client went away before its reply: the next one is another's
+                    pass
+
+
+def main():
+    if len(sys.argv) == 3 and sys.argv[1] == "--listen-fd":
+        serve_connections(socket.socket(fileno=int(sys.argv[2])))
+    else:
+        serve(sys.stdin, sys.stdout)
 
 
 if __name__ == "__main__":

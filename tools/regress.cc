@@ -494,6 +494,7 @@ int Regress(const RegressArgs& args) {
 
   nlohmann::json report;
   bool interrupted = false;
+  const SharedPlotServer plots;  // the flights' and the draws' plots: one Python for them all
   const int failures = args.monte_carlo > 0
                            ? RegressMonteCarlo(flights, overrides, monte_carlo_fidelity, args.monte_carlo,
                                                args.keep_bags, args.execution, out_dir, &report, &interrupted)

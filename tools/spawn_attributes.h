@@ -1,7 +1,7 @@
 #pragma once
-// posix_spawn attributes that start the child with no signal blocked: a helper started from a thread that
-// blocks SIGINT and SIGTERM (regress's evaluation thread, tools/regress.cc) would otherwise inherit that
-// mask and ignore Ctrl-C and kill.
+// posix_spawn attributes that start the child with no signal blocked: a helper (the plot server,
+// iapsim_media) started from a thread that blocks SIGINT and SIGTERM would otherwise inherit that mask and
+// ignore Ctrl-C and kill.
 
 #include <spawn.h>
 

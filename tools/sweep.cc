@@ -753,6 +753,7 @@ std::vector<SweepOutcome> RunSweep(const SweepSpec& spec, const std::vector<Swee
       if (how.slurm) {
         *submitted = RunOnSlurm(state, pending, slurm);
       } else {
+        const SharedPlotServer plots;  // the runs' plots: one Python for them all
         RunLocalPool(state, pending, jobs);
       }
     }
