@@ -397,6 +397,28 @@ for flight in spiral circle; do  # plotted by regress's one plot server (IAPSIM_
   grep -q "^run complete: $work/pair/out/$flight" "$work/pair/out/$flight/iapsim.log" || fail "$flight: no log of its run"
   [ -s "$work/pair/out/$flight/tracking_pose.png" ] || fail "$flight: no plot: $(cat "$work/pair/out/$flight/iapsim.log")"
 done
+# a run plots through the server IAPSIM_PLOT_SOCKET names (here a stand-in that records the job it gets)
+/usr/bin/python3 -c "
+import socket, sys
+server = socket.socket(socket.AF_UNIX)
+server.bind(sys.argv[1])
+server.listen(4)
+server.settimeout(60)  # a run that never comes fails the check below instead of hanging it
+open(sys.argv[1] + '.ready', 'w').close()
+connection, _ = server.accept()
+lines = connection.makefile('rw')
+open(sys.argv[2], 'w').write(lines.readline())
+lines.write('ok\\n')
+lines.flush()
+" "$work/stand_in.sock" "$work/stand_in.job" &
+stand_in=$!
+for _ in $(seq 100); do [ -e "$work/stand_in.sock.ready" ] && break; sleep 0.1; done
+IAPSIM_PLOT_SOCKET=$work/stand_in.sock "$iapsim" run "$src/configs/regression/two_line_circle.yaml" --duration 1 \
+  --out "$work/shared_plots" > "$work/shared_plots.out" 2>&1 || fail "run with a plot server: $(cat "$work/shared_plots.out")"
+wait_code $stand_in
+[ $code -eq 0 ] || fail "the stand-in plot server exited $code"
+grep -q "plot_tracking.py" "$work/stand_in.job" || fail "the run did not plot through the shared server: $(cat "$work/stand_in.job")"
+[ ! -e "$work/shared_plots/tracking_pose.png" ] || fail "the run plotted with its own server beside the shared one"
 # a plot server that is not there: the run plots with its own
 IAPSIM_PLOT_SOCKET=$work/no/socket "$iapsim" run "$src/configs/regression/two_line_circle.yaml" --duration 1 \
   --out "$work/own_plots" > "$work/own_plots.out" 2>&1 || fail "run with no plot server: $(cat "$work/own_plots.out")"

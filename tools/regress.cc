@@ -203,6 +203,9 @@ void Landed(FlightRun* run, const ChildExit& exit) {
   }
   std::ifstream in(fs::path(run->run_dir) / "metrics.json");
   run->metrics = EvaluationSections(nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false));
+  if (run->metrics.empty()) {
+    run->error = "no evaluation in " + run->run_dir + "/metrics.json (see its iapsim.log)";
+  }
 }
 
 // A metric's value, NaN when the evaluation did not produce it or it is null (an axis never settled).
