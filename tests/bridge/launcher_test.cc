@@ -15,6 +15,7 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
@@ -23,7 +24,6 @@
 
 #include "bridge/bag.h"
 #include "bridge/bus.h"
-#include "bridge/control_channel.h"
 #include "bridge/message_registry.h"
 #include "bridge/message_schema.h"
 #include "bridge/process.h"
@@ -123,6 +123,28 @@ class LauncherTest : public ::testing::Test {
   LaunchResult background_result_;
   std::atomic<bool> background_done_{false};
 };
+
+// A peer of the control channel with `credentials` set, that says "done" at once. Linger 0, unlike a
+// ControlClient (1 s, for a final report): a refused peer's messages never leave, and once (CI,
+// 2026-11-28; reproduced here once in a few hundred tries, the server closing while such peers retried)
+// libzmq 4.3.4's zmq_ctx_term waited forever on a refused PLAIN client lingering with them.
+zmq::socket_t ForgedPeer(zmq::context_t& context, const std::string& endpoint,
+                         const std::function<void(zmq::socket_t&)>& credentials) {
+  zmq::socket_t socket(context, zmq::socket_type::dealer);
+  socket.set(zmq::sockopt::routing_id, "physics");
+  socket.set(zmq::sockopt::linger, 0);
+  credentials(socket);
+  socket.connect(endpoint);
+  socket.send(zmq::str_buffer("done"), zmq::send_flags::sndmore);
+  socket.send(zmq::str_buffer(""), zmq::send_flags::none);
+  return socket;
+}
+std::function<void(zmq::socket_t&)> Plain(const std::string& user, const std::string& password) {
+  return [user, password](zmq::socket_t& socket) {
+    socket.set(zmq::sockopt::plain_username, user);
+    socket.set(zmq::sockopt::plain_password, password);
+  };
+}
 
 // clock (1 kHz) -> controller (1 kHz) -> clock, a 200 Hz sensor, and the recorder
 std::string LoopScenario(double duration_s) {
@@ -590,7 +612,9 @@ TEST_F(LauncherTest, RealtimeModeFollowsTheWallClockAndCountsLateAcks) {
     if (!type) return false;
     const auto stamp_ns = MessageStampNs(*type->schema, m.bytes.data(), m.bytes.size());
     EXPECT_TRUE(stamp_ns.has_value()) << m.topic;  // /clock, state, command and ranges all carry one
-    if (stamp_ns) EXPECT_EQ(m.record_time_ns, std::max<int64_t>(1, *stamp_ns)) << m.topic;
+    if (stamp_ns) {
+      EXPECT_EQ(m.record_time_ns, std::max<int64_t>(1, *stamp_ns)) << m.topic;
+    }
     ++stamped;
     return true;
   });
@@ -736,18 +760,10 @@ TEST_F(LauncherTest, ForgedControlMessagesAreRefused) {
   EXPECT_EQ(fs::status(dir_ / "run" / "secret").permissions(),
             fs::perms::owner_read | fs::perms::owner_write);
   {
-    ControlClient wrong_secret(endpoint, "physics", std::string(64, '0'));
-    ControlClient wrong_name(endpoint, "intruder", secret);
-    wrong_secret.Send("ready");
-    wrong_secret.Send("done");
-    wrong_name.Send("done");
     zmq::context_t context;
-    zmq::socket_t anonymous(context, zmq::socket_type::dealer);
-    anonymous.set(zmq::sockopt::routing_id, "physics");
-    anonymous.set(zmq::sockopt::linger, 1000);
-    anonymous.connect(endpoint);
-    anonymous.send(zmq::str_buffer("done"), zmq::send_flags::sndmore);
-    anonymous.send(zmq::str_buffer(""), zmq::send_flags::none);
+    zmq::socket_t wrong_secret = ForgedPeer(context, endpoint, Plain("physics", std::string(64, '0')));
+    zmq::socket_t wrong_name = ForgedPeer(context, endpoint, Plain("intruder", secret));
+    zmq::socket_t anonymous = ForgedPeer(context, endpoint, [](zmq::socket_t&) {});
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
   }
   const LaunchResult result = WaitForBackgroundRun();
@@ -864,7 +880,9 @@ TEST_F(LauncherTest, IntrudersOnTheBusAreRefusedOrDroppedAndTheRunGoesOn) {
   const std::string log = FileBytes(result.run_dir + "/logs/physics.log");
   EXPECT_NE(log.find("that did not send the run's secret"), std::string::npos) << log;
   EXPECT_NE(log.find("dropped subscriber 'stalled'"), std::string::npos) << log;
-  if (other_user_tried) EXPECT_NE(log.find("runs as another user (uid 65534)"), std::string::npos) << log;
+  if (other_user_tried) {
+    EXPECT_NE(log.find("runs as another user (uid 65534)"), std::string::npos) << log;
+  }
 }
 
 // On the ZeroMQ transports a blocking publisher waits for every subscriber of its socket, so watchers have
@@ -954,17 +972,18 @@ TEST_F(LauncherTest, ATcpRunsControlChannelIsEncryptedAndRefusesForgers) {
   const std::string endpoint = BackgroundScenario()["bus"]["control_endpoint"].as<std::string>();
   EXPECT_EQ(endpoint.rfind("tcp://127.0.0.1:", 0), 0u) << endpoint;
   {
-    ControlClient wrong_secret(endpoint, "physics", std::string(64, '0'));
-    wrong_secret.Send("done");
     zmq::context_t context;
-    zmq::socket_t plain(context, zmq::socket_type::dealer);
-    plain.set(zmq::sockopt::routing_id, "physics");
-    plain.set(zmq::sockopt::plain_username, "physics");
-    plain.set(zmq::sockopt::plain_password, BackgroundSecret());  // the secret, but in clear: refused
-    plain.set(zmq::sockopt::linger, 1000);
-    plain.connect(endpoint);
-    plain.send(zmq::str_buffer("done"), zmq::send_flags::sndmore);
-    plain.send(zmq::str_buffer(""), zmq::send_flags::none);
+    zmq::socket_t wrong_secret = ForgedPeer(context, endpoint, [](zmq::socket_t& socket) {
+      // a CURVE client whose keys (and idea of the server's) are not the run's
+      std::string server_public(40, '\0'), client_public(40, '\0'), client_secret(40, '\0'), unused(40, '\0');
+      zmq_curve_keypair(server_public.data(), unused.data());
+      zmq_curve_keypair(client_public.data(), client_secret.data());
+      socket.set(zmq::sockopt::curve_serverkey, server_public.c_str());
+      socket.set(zmq::sockopt::curve_publickey, client_public.c_str());
+      socket.set(zmq::sockopt::curve_secretkey, client_secret.c_str());
+    });
+    // the secret, but in clear: refused
+    zmq::socket_t plain = ForgedPeer(context, endpoint, Plain("physics", BackgroundSecret()));
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
   }
   const LaunchResult result = WaitForBackgroundRun();
