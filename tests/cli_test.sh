@@ -390,6 +390,12 @@ code=$?
 set -e
 [ $code -eq 1 ] || fail "regress of a failing pair exited $code: $(cat "$work/pair.out")"
 grep -q "^hover .*FAILED: the scenario has no evaluation section" "$work/pair.out" || fail "hover: $(cat "$work/pair.out")"
+/usr/bin/python3 -c "
+import json, sys
+report = json.load(open(sys.argv[1]))
+assert 'run_dir' not in report['hover'] and report['hover']['error'], report['hover']  # it never flew
+assert report['spiral']['run_dir'].endswith('/spiral'), report['spiral']
+" "$work/pair/out/regress.json" || fail "regress.json of the pair"
 grep -q "^circle .*position_max_m.z .*REGRESSION" "$work/pair.out" || fail "circle: $(cat "$work/pair.out")"
 [ "$(grep -E "^(spiral|hover|circle) " "$work/pair.out" | awk '!seen[$1]++ {print $1}' | tr '\n' ' ')" = "spiral hover circle " ] ||
   fail "flights reported out of order: $(cat "$work/pair.out")"
@@ -397,6 +403,35 @@ for flight in spiral circle; do  # plotted by regress's one plot server (IAPSIM_
   grep -q "^run complete: $work/pair/out/$flight" "$work/pair/out/$flight/iapsim.log" || fail "$flight: no log of its run"
   [ -s "$work/pair/out/$flight/tracking_pose.png" ] || fail "$flight: no plot: $(cat "$work/pair/out/$flight/iapsim.log")"
 done
+# the shared plot server listens in the abstract namespace (nothing on disk) and serves this user only
+/usr/bin/python3 - "$src/tools/plot_server.py" <<'PY' || fail "the plot server's listener"
+import os, socket, subprocess, sys
+listener = socket.socket(socket.AF_UNIX)
+listener.bind("\0iapsim-plots-test-%d" % os.getpid())
+listener.listen(4)
+server = subprocess.Popen([sys.executable, sys.argv[1], "--listen-fd", str(listener.fileno())],
+                          stdin=subprocess.PIPE, stderr=subprocess.PIPE, pass_fds=[listener.fileno()], text=True)
+def ask(job):
+    with socket.socket(socket.AF_UNIX) as s:
+        s.connect(listener.getsockname())
+        s.sendall(job.encode() + b"\n")
+        return s.makefile().readline().strip()
+assert ask("[]") == "error a job is [SCRIPT, ARG...]"
+if os.getuid() == 0:  # another user: refused, no reply
+    child = os.fork()
+    if child == 0:
+        os.setuid(65534)
+        try:
+            reply = ask("[]")
+        except OSError:  # reset: closed unread
+            reply = ""
+        os._exit(0 if reply == "" else 1)
+    assert os.waitstatus_to_exitcode(os.waitpid(child, 0)[1]) == 0, "another user was served"
+server.stdin.close()
+assert server.wait(timeout=30) == 0
+log = server.stderr.read()
+assert os.getuid() != 0 or "refused a connection of uid 65534" in log, log
+PY
 # a run plots through the server IAPSIM_PLOT_SOCKET names (here a stand-in that records the job it gets)
 /usr/bin/python3 -c "
 import socket, sys

@@ -12,7 +12,6 @@
 
 #include "bridge/launcher.h"
 #include "tools/commands.h"
-#include "tools/spawn_attributes.h"
 
 extern char** environ;
 
@@ -33,8 +32,7 @@ nlohmann::json RunMedia(const std::vector<std::string>& args) {
   argv.push_back(nullptr);
   std::fflush(stdout);  // what this process printed comes before what the child prints
   pid_t pid = 0;
-  const UnblockedSignalsSpawn attributes;
-  const int spawned = ::posix_spawn(&pid, program.c_str(), nullptr, attributes.get(), argv.data(), environ);
+  const int spawned = ::posix_spawn(&pid, program.c_str(), nullptr, nullptr, argv.data(), environ);
   int status = 0;
   if (spawned == 0) {
     while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {

@@ -8,14 +8,13 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-
-#include "tools/spawn_attributes.h"
+#include <random>
 
 extern char** environ;
 
@@ -62,17 +61,28 @@ bool Succeeded(const std::string& script, const std::string& reply) {
   return false;
 }
 
+// The address of a unix socket `name`: a path, or "@" and a name in the abstract namespace (nothing on disk
+// to remove, even after a SIGKILL). False when it does not fit.
+bool SocketAddress(const std::string& name, sockaddr_un* address, socklen_t* length) {
+  *address = sockaddr_un{};
+  address->sun_family = AF_UNIX;
+  if (name.empty() || name.size() >= sizeof address->sun_path) return false;
+  std::memcpy(address->sun_path, name.data(), name.size());
+  if (name[0] == '@') address->sun_path[0] = '\0';  // abstract: the length, not a NUL, ends its name
+  *length = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + name.size() + (name[0] == '@' ? 0 : 1));
+  return true;
+}
+
 // Runs the job on the server a SharedPlotServer of the program that started this one listens on; false
 // (`reply` empty) when it cannot be reached.
-bool RunShared(const char* socket_path, const std::string& line, std::string* reply) {
-  sockaddr_un address{};
-  address.sun_family = AF_UNIX;
-  if (std::strlen(socket_path) >= sizeof address.sun_path) return false;
-  std::strcpy(address.sun_path, socket_path);
+bool RunShared(const char* socket_name, const std::string& line, std::string* reply) {
+  sockaddr_un address;
+  socklen_t length;
+  if (!SocketAddress(socket_name, &address, &length)) return false;
   const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) return false;
   std::string buffer;
-  const bool answered = connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0 &&
+  const bool answered = connect(fd, reinterpret_cast<const sockaddr*>(&address), length) == 0 &&
                         SendAll(fd, line) && ReadLine(fd, &buffer, reply);
   close(fd);
   return answered;
@@ -92,9 +102,8 @@ pid_t StartServer(int stdin_fd, int stdout_fd, int listener, const std::vector<s
   posix_spawn_file_actions_adddup2(&actions, stdin_fd, STDIN_FILENO);
   posix_spawn_file_actions_adddup2(&actions, stdout_fd, STDOUT_FILENO);
   if (listener >= 0) posix_spawn_file_actions_adddup2(&actions, listener, listener);  // clears CLOEXEC
-  const UnblockedSignalsSpawn attributes;
   pid_t pid = -1;
-  const int spawned = posix_spawnp(&pid, python.c_str(), &actions, attributes.get(), argv.data(), environ);
+  const int spawned = posix_spawnp(&pid, python.c_str(), &actions, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
   if (spawned != 0) {
     std::fprintf(stderr, "iapsim: cannot start %s for %s: %s\n", python.c_str(), IAPSIM_PLOT_SERVER,
@@ -166,17 +175,16 @@ bool RunPlotScript(const std::string& script, const std::vector<std::string>& ar
 
 SharedPlotServer::SharedPlotServer() {
   if (std::getenv(kSharedSocketVariable) != nullptr) return;  // one serves already: an enclosing one's
-  char dir[] = "/tmp/iapsim-plots-XXXXXX";
-  if (mkdtemp(dir) == nullptr) return;  // each run then starts its own
-  dir_ = dir;
-  const std::string path = dir_ + "/socket";
-  sockaddr_un address{};
-  address.sun_family = AF_UNIX;
-  std::strcpy(address.sun_path, path.c_str());
+  // abstract (nothing to clean up), of this user only: the server serves no other uid (SO_PEERCRED)
+  std::random_device random;
+  const std::string name = "@iapsim-plots-" + std::to_string(getpid()) + "-" + std::to_string(random());
+  sockaddr_un address;
+  socklen_t length;
+  if (!SocketAddress(name, &address, &length)) return;
   int input[2] = {-1, -1};
   const int listener = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   // listening before the server starts: a run that plots before Python is up waits in the backlog
-  if (listener >= 0 && bind(listener, reinterpret_cast<const sockaddr*>(&address), sizeof address) == 0 &&
+  if (listener >= 0 && bind(listener, reinterpret_cast<const sockaddr*>(&address), length) == 0 &&
       listen(listener, 64) == 0 && pipe2(input, O_CLOEXEC) == 0) {
     pid_ = StartServer(input[0], STDERR_FILENO, listener, {"--listen-fd", std::to_string(listener)});
   }
@@ -184,7 +192,7 @@ SharedPlotServer::SharedPlotServer() {
   if (input[0] >= 0) close(input[0]);
   if (pid_ > 0) {
     input_ = input[1];
-    setenv(kSharedSocketVariable, path.c_str(), 1);
+    setenv(kSharedSocketVariable, name.c_str(), 1);
   } else if (input[1] >= 0) {
     close(input[1]);
   }
@@ -196,7 +204,6 @@ SharedPlotServer::~SharedPlotServer() {
     close(input_);  // end of its stdin: it returns once the plot in hand is done
     waitpid(pid_, nullptr, 0);
   }
-  if (!dir_.empty()) std::filesystem::remove_all(dir_);
 }
 
 }  // namespace iapsim::tools

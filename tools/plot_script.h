@@ -16,9 +16,10 @@ bool RunPlotScript(const std::string& script, const std::vector<std::string>& ar
 
 /// While it lives, the programs this one starts (the runs `iapsim regress` and `iapsim sweep` fly, each an
 /// `iapsim run`) and this one plot through one Python of its own, over a unix socket named to them by
-/// IAPSIM_PLOT_SOCKET, instead of each starting Python and importing matplotlib (0.5 s a run); its plots are
-/// made one at a time. Where it cannot start, or dies, each program plots with its own as before; where one
-/// is in place already (an enclosing one, or the starting program's), it does nothing.
+/// IAPSIM_PLOT_SOCKET (a path, or @ and a name in the abstract namespace: this one's, so nothing is left on
+/// disk, and served to this user only), instead of each starting Python and importing matplotlib (0.5 s a
+/// run); its plots are made one at a time. Where it cannot start, or dies, each program plots with its own as
+/// before; where one is in place already (an enclosing one, or the starting program's), it does nothing.
 class SharedPlotServer {
  public:
   SharedPlotServer();
@@ -27,7 +28,6 @@ class SharedPlotServer {
   SharedPlotServer& operator=(const SharedPlotServer&) = delete;
 
  private:
-  std::string dir_;  // of the socket
   pid_t pid_ = -1;
   int input_ = -1;  // its stdin: closed, it ends
 };

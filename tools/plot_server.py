@@ -6,15 +6,17 @@ Protocol, one job a line on stdin: a JSON list [SCRIPT, ARG...]; for each, one l
 "error " and why. The script runs as __main__ with sys.argv = [SCRIPT, ARG...]. Ends at end of input.
 
 With --listen-fd N it serves the same jobs on connections to the listening unix socket N instead, one
-connection at a time (each its jobs, one reply a line): the runs that `iapsim regress` and `iapsim sweep` fly
-side by side share it (tools/plot_script.h, SharedPlotServer); it ends at the end of stdin, when the program
-that started it closes its end or dies.
+connection at a time (each its jobs, one reply a line), of this user only: the runs that `iapsim regress` and
+`iapsim sweep` fly side by side share it (tools/plot_script.h, SharedPlotServer); it ends at the end of stdin,
+when the program that started it closes its end or dies.
 """
 import contextlib
 import json
+import os
 import runpy
 import select
 import socket
+import struct
 import sys
 import traceback
 
@@ -57,6 +59,15 @@ def serve(lines, out):
         out.flush()
 
 
+def same_user(connection):
+    """Whether the peer runs as this user: an abstract socket has no file permissions to keep others out."""
+    _, uid, _ = struct.unpack("3i", connection.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED, 12))
+    if uid == os.getuid():
+        return True
+    print(f"plot_server: refused a connection of uid {uid}", file=sys.stderr)
+    return False
+
+
 def serve_connections(listener):
     while True:
         ready, _, _ = select.select([listener, sys.stdin], [], [])
@@ -64,6 +75,9 @@ def serve_connections(listener):
             return  # the program that started this one is done, or gone
         if listener in ready:
             connection, _ = listener.accept()
+            if not same_user(connection):
+                connection.close()
+                continue
             with connection, connection.makefile("r") as lines, connection.makefile("w") as out:
                 try:
                     serve(lines, out)

@@ -177,7 +177,7 @@ struct FlightRun {
   std::string profile;  // ideal, realistic
   bool ideal = true;
   std::vector<std::string> overrides;
-  std::string run_dir;
+  std::string run_dir;  // empty for a run that failed before flying
   std::string error;
   int exit_code = 0;
   nlohmann::json metrics;  // {tracking: ..., contact: ...}
@@ -242,7 +242,7 @@ std::vector<Flight> Selected(const std::vector<Flight>& flights, const std::vect
 // Prints a flown and evaluated run's tables and checks, and records them in `report`; returns the failures.
 int Report(const FlightRun& run, nlohmann::json* report) {
   nlohmann::json& entry = (*report)[run.name];
-  entry["run_dir"] = run.run_dir;
+  if (!run.run_dir.empty()) entry["run_dir"] = run.run_dir;
   entry["fidelity"] = run.profile;
   if (!run.error.empty()) {
     std::printf("%-28s %-40s  FAILED: %s\n", run.name.c_str(), "run", run.error.c_str());
@@ -294,7 +294,10 @@ int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::strin
     } catch (const bridge::ConfigError& e) {
       run.error = std::string("invalid configuration: ") + e.what();
     }
-    if (!run.error.empty()) continue;
+    if (!run.error.empty()) {
+      run.run_dir.clear();
+      continue;
+    }
     fs::remove_all(run.run_dir);  // an earlier regress's run, with the same --out
     fs::create_directories(run.run_dir);
     flown.push_back(i);
