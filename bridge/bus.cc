@@ -430,7 +430,9 @@ Bus::Bus(const BusOptions& options) : impl_(std::make_unique<Impl>()) {
   }
 }
 
-Bus::~Bus() = default;
+Bus::~Bus() {
+  if (impl_ && impl_->zap) impl_->zap->StopWatching();  // before the watched sockets close
+}
 
 int64_t UnixTimeNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(

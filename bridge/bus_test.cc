@@ -8,12 +8,14 @@
 
 #include <algorithm>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <random>
 #include <thread>
 
 #include "bridge/internal/shm_transport.h"
+#include "bridge/internal/zap_gate.h"
 #include "bridge/testing/busy_loops.h"
 
 namespace iapsim::bridge {
@@ -676,6 +678,48 @@ TEST(ShmQueue, KeepsRecordsInOrderAcrossWrapAroundAndMoves) {
   const uint8_t* data;
   size_t n;
   EXPECT_EQ(reader->Peek(&data, &n), ShmQueue::Next::kMoved);
+}
+
+// A ZapGate counts the failed handshakes on the sockets it watches until it stops watching them (which an
+// owner does before they close: bridge/internal/zap_gate.h), and still refuses peers after that.
+TEST(ZapGate, CountsFailedHandshakesUntilItStopsWatching) {
+  zmq::context_t context(1);
+  int checked = 0;
+  ZapGate gate(context, [&checked](const ZapRequest&) {
+    ++checked;
+    return std::string("nobody gets in");
+  });
+  zmq::socket_t server(context, zmq::socket_type::router);
+  server.set(zmq::sockopt::linger, 0);
+  server.set(zmq::sockopt::plain_server, 1);
+  server.set(zmq::sockopt::zap_domain, "test");
+  gate.Watch(server);
+  const std::string endpoint = "ipc://@iapsim-zap-gate-test-" + std::to_string(getpid());
+  server.bind(endpoint);
+  // a PLAIN peer tries for `duration` (or until `until` holds) while the gate serves
+  const auto attempt = [&](std::chrono::milliseconds duration, const std::function<bool()>& until) {
+    zmq::context_t client_context(1);
+    zmq::socket_t client(client_context, zmq::socket_type::dealer);
+    client.set(zmq::sockopt::linger, 0);
+    client.set(zmq::sockopt::plain_username, "someone");
+    client.set(zmq::sockopt::plain_password, "anything");
+    client.connect(endpoint);
+    const auto end = std::chrono::steady_clock::now() + duration;
+    while (std::chrono::steady_clock::now() < end && !until()) {
+      gate.Serve();
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  };
+  attempt(std::chrono::milliseconds(5000), [&gate] { return gate.refused() > 0; });
+  ASSERT_GT(gate.refused(), 0u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  gate.Serve();  // the events of the last retries
+  const uint64_t counted = gate.refused();
+  const int checks_before = checked;
+  gate.StopWatching();
+  attempt(std::chrono::milliseconds(300), [] { return false; });
+  EXPECT_GT(checked, checks_before);  // still checked and refused
+  EXPECT_EQ(gate.refused(), counted);
 }
 
 }  // namespace

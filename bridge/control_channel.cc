@@ -129,7 +129,7 @@ ControlServer::ControlServer(const std::string& endpoint, const std::string& sec
   }
 }
 
-ControlServer::~ControlServer() = default;
+ControlServer::~ControlServer() { impl_->gate.StopWatching(); }  // before the socket closes
 
 void ControlServer::Send(const std::string& process, const std::string& kind) {
   impl_->socket.send(zmq::buffer(process), zmq::send_flags::sndmore | zmq::send_flags::dontwait);

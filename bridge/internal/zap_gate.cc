@@ -58,6 +58,12 @@ void ZapGate::Watch(zmq::socket_t& socket) {
     throw std::runtime_error(std::string("cannot monitor a socket: ") + zmq_strerror(zmq_errno()));
   }
   monitors_.emplace_back(context_, zmq::socket_type::pair).connect(endpoint);
+  watched_.push_back(socket.handle());
+}
+
+void ZapGate::StopWatching() {
+  for (void* socket : watched_) zmq_socket_monitor(socket, nullptr, 0);
+  watched_.clear();
 }
 
 void ZapGate::Serve() {

@@ -30,6 +30,10 @@ class ZapGate {
   ZapGate(zmq::context_t& context, Check check);
   /// Counts the failed handshakes of `socket` (a server: after its mechanism is set, before it binds).
   void Watch(zmq::socket_t& socket);
+  /// Stops the monitors: call it before a watched socket closes. libzmq 4.3.4 may deadlock the closing of
+  /// a socket whose monitor still runs (its own tests unregister the monitor first, libzmq commit 66094678),
+  /// the likelier while refused peers keep failing their handshakes (CI: a launcher hung 600 s so).
+  void StopWatching();
   /// Answers the requests and reads the events that are waiting; never blocks.
   void Serve();
   /// Sockets to poll for, so that a waiting thread can Serve at once: the ZAP endpoint, and a monitor per
@@ -48,6 +52,7 @@ class ZapGate {
   zmq::context_t& context_;
   zmq::socket_t zap_;
   std::vector<zmq::socket_t> monitors_;  // PAIR sockets: one per watched socket
+  std::vector<void*> watched_;           // the watched sockets' handles
   Check check_;
   uint64_t refused_ = 0;
   std::vector<std::string> refusals_;

@@ -125,9 +125,9 @@ class LauncherTest : public ::testing::Test {
 };
 
 // A peer of the control channel with `credentials` set, that says "done" at once. Linger 0, unlike a
-// ControlClient (1 s, for a final report): a refused peer's messages never leave, and once (CI,
-// 2026-11-28; reproduced here once in a few hundred tries, the server closing while such peers retried)
-// libzmq 4.3.4's zmq_ctx_term waited forever on a refused PLAIN client lingering with them.
+// ControlClient (1 s, for a final report): a refused peer's messages never leave, and such peers, retrying
+// every 10 ms while they lingered, were failing handshakes when the run ended and the launcher closed its
+// monitored control socket, which hung once in CI for 600 s (ZapGate::StopWatching now comes first).
 zmq::socket_t ForgedPeer(zmq::context_t& context, const std::string& endpoint,
                          const std::function<void(zmq::socket_t&)>& credentials) {
   zmq::socket_t socket(context, zmq::socket_type::dealer);
