@@ -41,6 +41,7 @@ struct Td3Bc::Impl {
   double last_actor = 0.0, last_behaviour = 0.0;
 
   static torch::Tensor Act(Mlp net, const torch::Tensor& s) { return torch::tanh(net->forward(s)); }
+  Mlp policy() const { return config.export_average ? actor_target : actor; }
   static torch::Tensor Q(Mlp net, const torch::Tensor& s, const torch::Tensor& a) {
     return net->forward(torch::cat({s, a}, 1));
   }
@@ -135,7 +136,7 @@ Action Td3Bc::Act(const Observation& observation) const {
       torch::from_blob(const_cast<double*>(observation.data()), {1, kObservationSize}, torch::kFloat64)
           .to(torch::kFloat32);
   const torch::Tensor out =
-      impl_->Act(impl_->actor, Normalise(in, impl_->mean, impl_->std)).to(torch::kFloat64).contiguous();
+      impl_->Act(impl_->policy(), Normalise(in, impl_->mean, impl_->std)).to(torch::kFloat64).contiguous();
   return Eigen::Map<const Action>(out.data_ptr<double>());
 }
 
@@ -201,7 +202,7 @@ void Td3Bc::Load(const std::string& path) {
 }
 
 void Td3Bc::ExportPolicy(const std::string& path) const {
-  ExportActor(path, impl_->actor, impl_->mean, impl_->std);
+  ExportActor(path, impl_->policy(), impl_->mean, impl_->std);
 }
 
 }  // namespace iapsim::rl

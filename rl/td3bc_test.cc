@@ -105,7 +105,7 @@ TEST(Td3Bc, ADamagedOrMismatchedCheckpointIsAnErrorNamingTheFile) {
                std::invalid_argument);
 }
 
-TEST(Td3Bc, TheExportedPolicyActsAsTheActor) {
+TEST(Td3Bc, TheExportedPolicyActsAsTheLearner) {
   test_support::TestFolder folder("td3bc_export");
   Td3Bc learner(ExpertData(), Small());
   for (int k = 0; k < 10; ++k) learner.Update();
@@ -116,6 +116,27 @@ TEST(Td3Bc, TheExportedPolicyActsAsTheActor) {
     const Observation observation = ExpertData().observations.row(row).transpose().cast<double>();
     EXPECT_LT((policy.Act(observation) - learner.Act(observation)).cwiseAbs().maxCoeff(), 1e-6) << row;
   }
+}
+
+// The policy is the actor's Polyak average by default: the actor itself where the average follows it at once
+// (τ 1) and before any update, and behind it otherwise.
+TEST(Td3Bc, ThePolicyIsTheActorsAverageOrItsLastIterate) {
+  const auto distance = [](double tau, int updates) {
+    Td3BcConfig average = Small(), last = Small();
+    average.tau = last.tau = tau;
+    last.export_average = false;
+    Td3Bc a(ExpertData(), average), b(ExpertData(), last);
+    for (int k = 0; k < updates; ++k) a.Update(), b.Update();
+    double largest = 0.0;
+    for (int row = 0; row < 600; row += 150) {
+      const Observation observation = ExpertData().observations.row(row).transpose().cast<double>();
+      largest = std::max(largest, (a.Act(observation) - b.Act(observation)).cwiseAbs().maxCoeff());
+    }
+    return largest;
+  };
+  EXPECT_LT(distance(0.005, 0), 1e-6);
+  EXPECT_LT(distance(1.0, 20), 1e-6);
+  EXPECT_GT(distance(0.005, 20), 1e-3);
 }
 
 }  // namespace

@@ -76,6 +76,12 @@ int main(int argc, char** argv) {
       ->add_option("--td3bc-alpha", train.td3bc_alpha, "TD3-BC's alpha (default 2.5; 0: behaviour cloning)")
       ->check(CLI::Range(0.0, 1e6));
   train_cmd
+      ->add_option(
+          "--td3bc-policy", train.td3bc_policy,
+          "the policy TD3-BC exports and evaluates: average (the actor's Polyak average, default) or "
+          "last (its last iterate)")
+      ->check(CLI::IsMember({"average", "last"}));
+  train_cmd
       ->add_option("--eval-every", train.eval_every,
                    "updates between evaluations and checkpoints (default 2000)")
       ->check(CLI::Range(int64_t{1}, int64_t{1} << 40));

@@ -96,6 +96,7 @@ void Td3BcStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& da
   config.seed = args.expert.seed;
   config.threads = args.expert.threads;
   config.alpha = args.td3bc_alpha;
+  config.export_average = args.td3bc_policy == "average";
   rl::Td3Bc learner(data, config);
   const fs::path checkpoint = dir / "checkpoint.pt", log_file = dir / "log.csv", policy = dir / "policy.pt";
   if (fs::exists(checkpoint)) {
