@@ -65,10 +65,9 @@ struct RlTrainArgs {
   RlEpisodeArgs expert;       // the task, seed, threads, and how many expert episodes make the data set
   int64_t td3bc_steps = 20000;
   double td3bc_alpha = 2.5;  // TD3-BC's α: the Q term's weight against behaviour cloning (0: pure cloning)
-  std::string td3bc_policy =
-      "average";              // its policy: the actor's Polyak average, or "last", its last iterate
-  int64_t eval_every = 2000;  // updates between evaluations (and checkpoints)
-  int eval_episodes = 50;     // from the stream (seed + 1, e): the same starts at every evaluation
+  std::string td3bc_policy = "average";  // the actor's Polyak average, or "last": its last iterate
+  int64_t eval_every = 2000;             // updates between evaluations (and checkpoints)
+  int eval_episodes = 50;                // from the stream (seed + 1, e): the same starts at every evaluation
   int64_t ppo_iterations = 50;
   int ppo_envs = rl::PpoConfig().envs;
   int ppo_rollout_steps = rl::PpoConfig().rollout_steps;  // per environment and iteration

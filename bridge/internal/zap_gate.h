@@ -32,7 +32,8 @@ class ZapGate {
   void Watch(zmq::socket_t& socket);
   /// Stops the monitors: call it before a watched socket closes. libzmq 4.3.4 may deadlock the closing of
   /// a socket whose monitor still runs (its own tests unregister the monitor first, libzmq commit 66094678),
-  /// the likelier while refused peers keep failing their handshakes (CI: a launcher hung 600 s so).
+  /// the likelier while refused peers keep failing their handshakes (most likely why a launcher hung 600 s
+  /// in CI, 2026-11-28; not reproduced on demand).
   void StopWatching();
   /// Answers the requests and reads the events that are waiting; never blocks.
   void Serve();

@@ -127,7 +127,8 @@ class LauncherTest : public ::testing::Test {
 // A peer of the control channel with `credentials` set, that says "done" at once. Linger 0, unlike a
 // ControlClient (1 s, for a final report): a refused peer's messages never leave, and such peers, retrying
 // every 10 ms while they lingered, were failing handshakes when the run ended and the launcher closed its
-// monitored control socket, which hung once in CI for 600 s (ZapGate::StopWatching now comes first).
+// monitored control socket: most likely why this test hung once in CI for 600 s (not reproduced on
+// demand; ZapGate::StopWatching now comes before the close).
 zmq::socket_t ForgedPeer(zmq::context_t& context, const std::string& endpoint,
                          const std::function<void(zmq::socket_t&)>& credentials) {
   zmq::socket_t socket(context, zmq::socket_type::dealer);
