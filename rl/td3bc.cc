@@ -7,32 +7,10 @@
 #include "rl/torch_networks.h"
 
 namespace iapsim::rl {
-namespace {
-
-torch::Tensor FromFlags(const std::vector<uint8_t>& flags) {
-  return torch::from_blob(const_cast<uint8_t*>(flags.data()), {static_cast<int64_t>(flags.size()), 1},
-                          torch::kUInt8)
-      .to(torch::kFloat32);
-}
-
-void SoftUpdate(const torch::nn::Module& source, torch::nn::Module& target, double tau) {
-  torch::NoGradGuard no_grad;
-  const auto from = source.parameters();
-  auto to = target.parameters();
-  for (size_t i = 0; i < from.size(); ++i) to[i].mul_(1.0 - tau).add_(from[i], tau);
-}
-
-void CopyParameters(const torch::nn::Module& source, torch::nn::Module& target) {
-  SoftUpdate(source, target, 1.0);
-}
-
-}  // namespace
 
 struct Td3Bc::Impl {
   Td3BcConfig config;
-  // the data set as tensors, observations normalised
-  torch::Tensor observations, actions, rewards, next_observations, not_done;
-  torch::Tensor mean, std;
+  OfflineTensors data;
   Mlp actor{nullptr}, actor_target{nullptr};
   Mlp critic1{nullptr}, critic2{nullptr}, critic1_target{nullptr}, critic2_target{nullptr};
   std::unique_ptr<torch::optim::Adam> actor_optimizer, critic_optimizer;
@@ -46,12 +24,26 @@ struct Td3Bc::Impl {
     return net->forward(torch::cat({s, a}, 1));
   }
 
+  // what a checkpoint holds, the step and the random state by way of the tensors given
+  Checkpoint Parts(torch::Tensor* step_tensor, torch::Tensor* generator_state) {
+    return {
+        {{"actor", actor.get()},
+         {"actor_target", actor_target.get()},
+         {"critic1", critic1.get()},
+         {"critic2", critic2.get()},
+         {"critic1_target", critic1_target.get()},
+         {"critic2_target", critic2_target.get()}},
+        {{"actor_optimizer", actor_optimizer.get()}, {"critic_optimizer", critic_optimizer.get()}},
+        {{"mean", &data.mean}, {"std", &data.std}, {"step", step_tensor}, {"generator", generator_state}}};
+  }
+
   Td3BcLosses Update(const torch::Tensor& rows) {
     // a TorchScript policy evaluated in between sets one thread (rl/torchscript_policy.h)
     if (at::get_num_threads() != config.threads) at::set_num_threads(config.threads);
-    const torch::Tensor s = observations.index_select(0, rows), a = actions.index_select(0, rows);
-    const torch::Tensor r = rewards.index_select(0, rows), s2 = next_observations.index_select(0, rows);
-    const torch::Tensor not_done_rows = not_done.index_select(0, rows);
+    const torch::Tensor s = data.observations.index_select(0, rows), a = data.actions.index_select(0, rows);
+    const torch::Tensor r = data.rewards.index_select(0, rows);
+    const torch::Tensor s2 = data.next_observations.index_select(0, rows);
+    const torch::Tensor not_done_rows = data.not_done.index_select(0, rows);
     torch::Tensor y;
     {
       torch::NoGradGuard no_grad;
@@ -98,15 +90,7 @@ Td3Bc::Td3Bc(const Dataset& data, const Td3BcConfig& config) : impl_(std::make_u
   impl.config = config;
   torch::manual_seed(config.seed);  // the networks' initial weights
   impl.generator = at::detail::createCPUGenerator(config.seed);
-  const torch::Tensor observations = FromRows(data.observations);
-  impl.mean = observations.mean(0, true);
-  impl.std = observations.std(0, true, true) + 1e-3;  // TD3-BC's normalisation, its ε
-  impl.observations = Normalise(observations, impl.mean, impl.std);
-  impl.next_observations = Normalise(FromRows(data.next_observations), impl.mean, impl.std);
-  impl.actions = FromRows(data.actions);
-  impl.rewards =
-      torch::from_blob(const_cast<float*>(data.rewards.data()), {data.size(), 1}, torch::kFloat32).clone();
-  impl.not_done = 1.0 - FromFlags(data.terminals);
+  impl.data = ToTensors(data);
 
   const int64_t h = config.hidden;
   impl.actor = Mlp(kObservationSize, h, kActionSize);
@@ -115,9 +99,9 @@ Td3Bc::Td3Bc(const Dataset& data, const Td3BcConfig& config) : impl_(std::make_u
   impl.critic2 = Mlp(kObservationSize + kActionSize, h, 1);
   impl.critic1_target = Mlp(kObservationSize + kActionSize, h, 1);
   impl.critic2_target = Mlp(kObservationSize + kActionSize, h, 1);
-  CopyParameters(*impl.actor, *impl.actor_target);
-  CopyParameters(*impl.critic1, *impl.critic1_target);
-  CopyParameters(*impl.critic2, *impl.critic2_target);
+  SoftUpdate(*impl.actor, *impl.actor_target, 1.0);
+  SoftUpdate(*impl.critic1, *impl.critic1_target, 1.0);
+  SoftUpdate(*impl.critic2, *impl.critic2_target, 1.0);
   impl.actor_optimizer = std::make_unique<torch::optim::Adam>(
       impl.actor->parameters(), torch::optim::AdamOptions(config.actor_learning_rate));
   std::vector<torch::Tensor> critics = impl.critic1->parameters();
@@ -131,19 +115,13 @@ Td3Bc::~Td3Bc() = default;
 int64_t Td3Bc::step() const { return impl_->step; }
 
 Action Td3Bc::Act(const Observation& observation) const {
-  torch::NoGradGuard no_grad;
-  const torch::Tensor in =
-      torch::from_blob(const_cast<double*>(observation.data()), {1, kObservationSize}, torch::kFloat64)
-          .to(torch::kFloat32);
-  const torch::Tensor out =
-      impl_->Act(impl_->policy(), Normalise(in, impl_->mean, impl_->std)).to(torch::kFloat64).contiguous();
-  return Eigen::Map<const Action>(out.data_ptr<double>());
+  return ActOn(impl_->policy(), impl_->data.mean, impl_->data.std, observation);
 }
 
 Td3BcLosses Td3Bc::Update() {
   Impl& impl = *impl_;
   return impl.Update(
-      torch::randint(impl.observations.size(0), {impl.config.batch}, impl.generator, torch::kLong));
+      torch::randint(impl.data.observations.size(0), {impl.config.batch}, impl.generator, torch::kLong));
 }
 
 Td3BcLosses Td3Bc::UpdateOn(int64_t first) {
@@ -151,58 +129,19 @@ Td3BcLosses Td3Bc::UpdateOn(int64_t first) {
 }
 
 void Td3Bc::Save(const std::string& path) const {
-  const Impl& impl = *impl_;
-  torch::serialize::OutputArchive archive;
-  WriteModule(archive, "actor", *impl.actor);
-  WriteModule(archive, "actor_target", *impl.actor_target);
-  WriteModule(archive, "critic1", *impl.critic1);
-  WriteModule(archive, "critic2", *impl.critic2);
-  WriteModule(archive, "critic1_target", *impl.critic1_target);
-  WriteModule(archive, "critic2_target", *impl.critic2_target);
-  torch::serialize::OutputArchive actor_optimizer, critic_optimizer;
-  impl.actor_optimizer->save(actor_optimizer);
-  impl.critic_optimizer->save(critic_optimizer);
-  archive.write("actor_optimizer", actor_optimizer);
-  archive.write("critic_optimizer", critic_optimizer);
-  archive.write("mean", impl.mean);
-  archive.write("std", impl.std);
-  archive.write("step", torch::tensor(impl.step, torch::kLong));
-  archive.write("generator", impl.generator.get_state());
-  SaveArchive(archive, path);
+  torch::Tensor step = torch::tensor(impl_->step, torch::kLong), generator = impl_->generator.get_state();
+  impl_->Parts(&step, &generator).Save(path);
 }
 
 void Td3Bc::Load(const std::string& path) {
-  Impl& impl = *impl_;
-  try {
-    torch::serialize::InputArchive archive;
-    archive.load_from(path);
-    ReadModule(archive, "actor", *impl.actor);
-    ReadModule(archive, "actor_target", *impl.actor_target);
-    ReadModule(archive, "critic1", *impl.critic1);
-    ReadModule(archive, "critic2", *impl.critic2);
-    ReadModule(archive, "critic1_target", *impl.critic1_target);
-    ReadModule(archive, "critic2_target", *impl.critic2_target);
-    torch::serialize::InputArchive actor_optimizer, critic_optimizer;
-    archive.read("actor_optimizer", actor_optimizer);
-    archive.read("critic_optimizer", critic_optimizer);
-    impl.actor_optimizer->load(actor_optimizer);
-    impl.critic_optimizer->load(critic_optimizer);
-    archive.read("mean", impl.mean);
-    archive.read("std", impl.std);
-    torch::Tensor step, generator;
-    archive.read("step", step);
-    archive.read("generator", generator);
-    impl.step = step.item<int64_t>();
-    impl.generator.set_state(generator);
-  } catch (const std::exception& error) {  // c10::Error: no archive, a missing key, a shape that differs
-    const std::string what = error.what();
-    throw std::runtime_error(path + ": not a TD3-BC checkpoint of this shape (" +
-                             what.substr(0, what.find('\n')) + ")");
-  }
+  torch::Tensor step, generator;
+  impl_->Parts(&step, &generator).Load(path, "TD3-BC");
+  impl_->step = step.item<int64_t>();
+  impl_->generator.set_state(generator);
 }
 
 void Td3Bc::ExportPolicy(const std::string& path) const {
-  ExportActor(path, impl_->policy(), impl_->mean, impl_->std);
+  ExportActor(path, impl_->policy(), impl_->data.mean, impl_->data.std);
 }
 
 }  // namespace iapsim::rl

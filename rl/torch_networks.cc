@@ -19,6 +19,29 @@ torch::Tensor Normalise(const torch::Tensor& observations, const torch::Tensor& 
   return ((observations - mean) / std).clamp(-kObservationClip, kObservationClip);
 }
 
+void SoftUpdate(const torch::nn::Module& source, torch::nn::Module& target, double tau) {
+  torch::NoGradGuard no_grad;
+  const auto from = source.parameters();
+  auto to = target.parameters();
+  for (size_t i = 0; i < from.size(); ++i) to[i].mul_(1.0 - tau).add_(from[i], tau);
+}
+
+OfflineTensors ToTensors(const Dataset& data) {
+  OfflineTensors t;
+  const torch::Tensor observations = FromRows(data.observations);
+  t.mean = observations.mean(0, true);
+  t.std = observations.std(0, true, true) + 1e-3;
+  t.observations = Normalise(observations, t.mean, t.std);
+  t.next_observations = Normalise(FromRows(data.next_observations), t.mean, t.std);
+  t.actions = FromRows(data.actions);
+  t.rewards =
+      torch::from_blob(const_cast<float*>(data.rewards.data()), {data.size(), 1}, torch::kFloat32).clone();
+  const torch::Tensor terminals =
+      torch::from_blob(const_cast<uint8_t*>(data.terminals.data()), {data.size(), 1}, torch::kUInt8);
+  t.not_done = 1.0 - terminals.to(torch::kFloat32);
+  return t;
+}
+
 void WriteModule(torch::serialize::OutputArchive& archive, const char* name,
                  const torch::nn::Module& module) {
   torch::serialize::OutputArchive part;
@@ -45,6 +68,46 @@ void SaveArchive(torch::serialize::OutputArchive& archive, const std::string& pa
   const std::string partial = path + ".partial";
   archive.save_to(partial);
   std::filesystem::rename(partial, path);
+}
+
+void Checkpoint::Save(const std::string& path) const {
+  torch::serialize::OutputArchive archive;
+  for (const auto& [name, module] : modules) WriteModule(archive, name.c_str(), *module);
+  for (const auto& [name, optimizer] : optimizers) {
+    torch::serialize::OutputArchive part;
+    optimizer->save(part);
+    archive.write(name, part);
+  }
+  for (const auto& [name, tensor] : tensors) archive.write(name, *tensor);
+  SaveArchive(archive, path);
+}
+
+void Checkpoint::Load(const std::string& path, const std::string& learner) const {
+  try {
+    torch::serialize::InputArchive archive;
+    archive.load_from(path);
+    for (const auto& [name, module] : modules) ReadModule(archive, name.c_str(), *module);
+    for (const auto& [name, optimizer] : optimizers) {
+      torch::serialize::InputArchive part;
+      archive.read(name, part);
+      optimizer->load(part);
+    }
+    for (const auto& [name, tensor] : tensors) archive.read(name, *tensor);
+  } catch (const std::exception& error) {  // c10::Error: no archive, a missing key, a shape that differs
+    const std::string what = error.what();
+    throw std::runtime_error(path + ": not a " + learner + " checkpoint of this shape (" +
+                             what.substr(0, what.find('\n')) + ")");
+  }
+}
+
+Action ActOn(Mlp actor, const torch::Tensor& mean, const torch::Tensor& std, const Observation& observation) {
+  torch::NoGradGuard no_grad;
+  const torch::Tensor in =
+      torch::from_blob(const_cast<double*>(observation.data()), {1, kObservationSize}, torch::kFloat64)
+          .to(torch::kFloat32);
+  const torch::Tensor out =
+      torch::tanh(actor->forward(Normalise(in, mean, std))).to(torch::kFloat64).contiguous();
+  return Eigen::Map<const Action>(out.data_ptr<double>());
 }
 
 void ExportActor(const std::string& path, const Mlp& actor, const torch::Tensor& mean,

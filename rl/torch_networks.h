@@ -1,7 +1,7 @@
 #pragma once
-// What the learners (rl/td3bc.cc, rl/ppo.cc) share inside iapsim::rl_torch: the MLP, the observation
-// normalisation, checkpoint parts and the actor's TorchScript form. Includes libtorch: for the learners'
-// sources and their tests only, never for a header other code includes.
+// What the learners (rl/td3bc.cc, rl/iql.cc, rl/ppo.cc) share inside iapsim::rl_torch: the MLP, the
+// observation normalisation, checkpoint parts and the actor's TorchScript form. Includes libtorch: for the
+// learners' sources and their tests only, never for a header other code includes.
 //
 // The actor's TorchScript form (DockingPolicy) is what `iapsim rl eval --policy` flies and what PPO starts
 // from: buffers mean and std, parameters w0, b0, w1, b1, w2, b2, and
@@ -11,6 +11,8 @@
 #include <torch/torch.h>
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "rl/dataset.h"
 
@@ -35,6 +37,35 @@ torch::Tensor FromRows(const RowMatrixF& rows);
 /// deviations.
 torch::Tensor Normalise(const torch::Tensor& observations, const torch::Tensor& mean,
                         const torch::Tensor& std);
+
+/// target ← (1 − τ) target + τ source, parameter by parameter (TD3's and IQL's target networks, τ = 1: a
+/// copy).
+void SoftUpdate(const torch::nn::Module& source, torch::nn::Module& target, double tau);
+
+/// A data set as the offline learners (TD3-BC, IQL) train on it: float32 tensors, one row per transition,
+/// observations normalised by the data set's mean and standard deviation (+ 1e-3, TD3-BC's ε), `not_done`
+/// 1 − terminal.
+struct OfflineTensors {
+  torch::Tensor observations, actions, rewards, next_observations, not_done;
+  torch::Tensor mean, std;
+};
+OfflineTensors ToTensors(const Dataset& data);
+
+/// A learner's checkpoint: its networks, optimisers and tensors (step counters and random state as tensors),
+/// each under its name, by pointer into the learner.
+struct Checkpoint {
+  std::vector<std::pair<std::string, torch::nn::Module*>> modules;
+  std::vector<std::pair<std::string, torch::optim::Optimizer*>> optimizers;
+  std::vector<std::pair<std::string, torch::Tensor*>> tensors;
+  /// Writes every part to PATH.partial and renames it.
+  void Save(const std::string& path) const;
+  /// Reads every part in place; throws std::runtime_error "PATH: not a <learner> checkpoint of this shape
+  /// (why)" for a file that is no archive, lacks a part or has layers of another width.
+  void Load(const std::string& path, const std::string& learner) const;
+};
+
+/// The actor's action (tanh of its output) for one raw observation, normalised by `mean` and `std`.
+Action ActOn(Mlp actor, const torch::Tensor& mean, const torch::Tensor& std, const Observation& observation);
 
 /// Writes `module` under `name` into `archive`.
 void WriteModule(torch::serialize::OutputArchive& archive, const char* name, const torch::nn::Module& module);

@@ -165,6 +165,18 @@ grep -q "td3bc: resuming from .* at update 4" "$work/train.out" || fail "rl trai
 [ "$(cut -d, -f1 "$work/train/td3bc/log.csv" | tr '\n' ' ')" = "step 2 4 6 " ] || fail "rl train log: $(cat "$work/train/td3bc/log.csv")"
 grep -q "ppo: resuming from .* at iteration 2" "$work/train.out" || fail "rl train did not resume PPO: $(cat "$work/train.out")"
 [ "$(cut -d, -f1 "$work/train/ppo/log.csv" | tr '\n' ' ')" = "iteration 1 2 3 " ] || fail "rl train PPO log: $(cat "$work/train/ppo/log.csv")"
+# IQL on the same data: its files and a resumed run; then the whole pipeline with --offline iql, PPO from IQL
+"$iapsim" rl train "$work/train" "${train[@]}" --stage iql --iql-steps 2 > "$work/iql.out"
+"$iapsim" rl train "$work/train" "${train[@]}" --stage iql --iql-steps 4 > "$work/iql.out"
+grep -q "iql: resuming from .* at update 2" "$work/iql.out" || fail "rl train did not resume IQL: $(cat "$work/iql.out")"
+[ "$(cut -d, -f1 "$work/train/iql/log.csv" | tr '\n' ' ')" = "step 2 4 " ] && head -1 "$work/train/iql/log.csv" | grep -q ",value_loss," ||
+  fail "rl train IQL log: $(cat "$work/train/iql/log.csv")"
+for f in iql/checkpoint.pt iql/policy.pt iql/log.csv iql/curves.png; do
+  [ -s "$work/train/$f" ] || fail "rl train --stage iql wrote no $f: $(cat "$work/iql.out")"
+done
+"$iapsim" rl train "$work/train_iql" "${train[@]}" --offline iql --iql-steps 2 --ppo-iterations 1 > "$work/train_iql.out"
+grep -q "ppo: from $work/train_iql/iql/policy.pt" "$work/train_iql.out" || fail "--offline iql: $(cat "$work/train_iql.out")"
+[ ! -e "$work/train_iql/td3bc" ] || fail "--offline iql ran TD3-BC: $(cat "$work/train_iql.out")"
 # PPO with two workers (this process and one it starts, gradients all-reduced through Gloo): the same seed
 # gives the same log twice, and a resumed run continues it exactly (the wall times aside)
 workers=("${train[@]}" --stage ppo --ppo-init "$work/train/td3bc/policy.pt" --ppo-workers 2)
@@ -202,7 +214,7 @@ set -e
 [ $code -ne 0 ] || fail "rl train succeeded without its worker"
 grep -qF "ppo: worker 1 was killed by signal 9; see $work/workers_killed/ppo/worker-1.log" "$work/workers_killed.out" ||
   fail "a killed worker: $(cat "$work/workers_killed.out")"
-for policy in td3bc ppo; do
+for policy in td3bc iql ppo; do
   "$iapsim" rl eval --task "$src/configs/rl/docking.yaml" --policy "$work/train/$policy/policy.pt" --episodes 1 \
     --set termination.max_steps=20 > "$work/eval_$policy.out" || fail "rl eval of the $policy policy: $(cat "$work/eval_$policy.out")"
 done

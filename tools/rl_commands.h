@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "rl/evaluation.h"
+#include "rl/iql.h"
 #include "rl/ppo.h"
 
 namespace iapsim::tools {
@@ -60,19 +61,24 @@ std::vector<rl::EpisodeResult> CollectDataset(const RlEpisodeArgs& args, const s
 
 struct RlTrainArgs {
   std::string
-      out_dir;  // expert/ (data.hdf5, summary.json), td3bc/ and ppo/ (checkpoint, log, policy, curves)
-  std::string stage = "all";  // expert, td3bc, ppo or all
-  RlEpisodeArgs expert;       // the task, seed, threads, and how many expert episodes make the data set
+      out_dir;  // expert/ (data.hdf5, summary.json), td3bc/, iql/ and ppo/ (checkpoint, log, policy, curves)
+  std::string stage = "all";      // expert, td3bc, iql, ppo or all
+  std::string offline = "td3bc";  // the offline learner `all` runs and PPO starts from: td3bc or iql
+  RlEpisodeArgs expert;           // the task, seed, threads, and how many expert episodes make the data set
   int64_t td3bc_steps = 20000;
   double td3bc_alpha = 2.5;  // TD3-BC's α: the Q term's weight against behaviour cloning (0: pure cloning)
   std::string td3bc_policy = "average";  // the actor's Polyak average, or "last": its last iterate
-  int64_t eval_every = 2000;             // updates between evaluations (and checkpoints)
-  int eval_episodes = 50;                // from the stream (seed + 1, e): the same starts at every evaluation
+  int64_t iql_steps = 20000;
+  double iql_expectile = rl::IqlConfig().expectile;
+  double iql_beta = rl::IqlConfig().beta;  // the advantage's inverse temperature
+  std::string iql_policy = "average";
+  int64_t eval_every = 2000;  // updates between evaluations (and checkpoints)
+  int eval_episodes = 50;     // from the stream (seed + 1, e): the same starts at every evaluation
   int64_t ppo_iterations = 50;
   int ppo_envs = rl::PpoConfig().envs;
   int ppo_rollout_steps = rl::PpoConfig().rollout_steps;  // per environment and iteration
   int64_t ppo_eval_every = 5;                             // iterations between evaluations (and checkpoints)
-  std::string ppo_init;  // the policy PPO starts from; empty: td3bc/policy.pt
+  std::string ppo_init;  // the policy PPO starts from; empty: <offline>/policy.pt
   double ppo_actor_learning_rate = rl::PpoConfig().actor_learning_rate;
   double ppo_initial_std = rl::PpoConfig().initial_std;
   int ppo_value_warmup = rl::PpoConfig().value_warmup_iterations;
@@ -85,10 +91,10 @@ struct RlTrainArgs {
   std::string ppo_rendezvous;             // ... and its rendezvous file
   std::vector<std::string> command_line;  // this process's arguments after the program, for the workers
 };
-/// The seed's offline-to-online pipeline (§IV-E, Fig. 7): the expert's data set, then TD3-BC on it, then PPO
-/// from the TD3-BC actor, each evaluated and checkpointed as it goes; a stage whose output exists resumes
-/// (expert: kept; TD3-BC and PPO: from their checkpoints). Each learner writes a CSV log, curves (PNG) and
-/// its policy as TorchScript. Exit 2 on bad input.
+/// The seed's offline-to-online pipeline (§IV-E, Fig. 7): the expert's data set, then TD3-BC (or IQL) on it,
+/// then PPO from that actor, each evaluated and checkpointed as it goes; a stage whose output exists resumes
+/// (expert: kept; TD3-BC, IQL and PPO: from their checkpoints). Each learner writes a CSV log, curves (PNG)
+/// and its policy as TorchScript. Exit 2 on bad input.
 int RlTrain(const RlTrainArgs& args);
 
 }  // namespace iapsim::tools

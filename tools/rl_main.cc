@@ -1,7 +1,8 @@
 // iapsim_rl: the commands of `iapsim rl` (tools/rl_commands.h), which `iapsim rl ...` execs.
 //   iapsim rl eval [--policy expert|FILE.pt] [--episodes N] ... [--out DIR] [--graph]
 //   iapsim rl collect FILE.hdf5 [--policy expert|FILE.pt] [--episodes N] ...
-//   iapsim rl train DIR [--stage expert|td3bc|ppo|all] [--td3bc-steps N] [--ppo-iterations N] ...
+//   iapsim rl train DIR [--stage expert|td3bc|iql|ppo|all] [--offline td3bc|iql] [--td3bc-steps N]
+//   [--ppo-iterations N] ...
 
 #include <CLI/CLI.hpp>
 
@@ -53,11 +54,15 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 10.0));
 
   RlTrainArgs train;
-  auto* train_cmd =
-      app.add_subcommand("train", "the expert's data set, then TD3-BC on it, then PPO from its actor");
+  auto* train_cmd = app.add_subcommand(
+      "train", "the expert's data set, then TD3-BC (or IQL) on it, then PPO from its actor");
   train_cmd->add_option("out_dir", train.out_dir, "where the stages write and resume from")->required();
-  train_cmd->add_option("--stage", train.stage, "expert, td3bc, ppo or all (default)")
-      ->check(CLI::IsMember({"expert", "td3bc", "ppo", "all"}));
+  train_cmd->add_option("--stage", train.stage, "expert, td3bc, iql, ppo or all (default)")
+      ->check(CLI::IsMember({"expert", "td3bc", "iql", "ppo", "all"}));
+  train_cmd
+      ->add_option("--offline", train.offline,
+                   "the offline learner --stage all runs and PPO starts from: td3bc (default) or iql")
+      ->check(CLI::IsMember({"td3bc", "iql"}));
   train_cmd->add_option("--task", train.expert.task, "task YAML (default configs/rl/docking.yaml)")
       ->check(CLI::ExistingFile);
   train_cmd->add_option("--set", train.expert.overrides, "override a task key: KEY=VALUE (repeatable)");
@@ -80,6 +85,19 @@ int main(int argc, char** argv) {
           "--td3bc-policy", train.td3bc_policy,
           "the policy TD3-BC exports and evaluates: average (the actor's Polyak average, default) or "
           "last (its last iterate)")
+      ->check(CLI::IsMember({"average", "last"}));
+  train_cmd->add_option("--iql-steps", train.iql_steps, "IQL updates in all (default 20000)")
+      ->check(CLI::Range(int64_t{0}, int64_t{1} << 40));
+  train_cmd->add_option("--iql-expectile", train.iql_expectile, "IQL's expectile tau")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-6, 1.0 - 1e-6));
+  train_cmd
+      ->add_option("--iql-beta", train.iql_beta, "IQL's inverse temperature on the advantage (0: cloning)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
+  train_cmd
+      ->add_option("--iql-policy", train.iql_policy,
+                   "the policy IQL exports and evaluates: average (default) or last")
       ->check(CLI::IsMember({"average", "last"}));
   train_cmd
       ->add_option("--eval-every", train.eval_every,
@@ -125,7 +143,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1e6));
   train_cmd
       ->add_option("--ppo-init", train.ppo_init,
-                   "the TorchScript policy PPO starts from (default DIR/td3bc/policy.pt)")
+                   "the TorchScript policy PPO starts from (default DIR/td3bc/policy.pt, with --offline iql "
+                   "DIR/iql/policy.pt)")
       ->check(CLI::ExistingFile);
   train_cmd
       ->add_option("--ppo-workers", train.ppo_workers,
@@ -148,6 +167,7 @@ int main(int argc, char** argv) {
   train_cmd->footer(
       "Examples:\n"
       "  iapsim rl train runs/rl --td3bc-alpha 0 --td3bc-steps 4000 --ppo-iterations 0\n"
+      "  iapsim rl train runs/rl --offline iql --iql-steps 10000\n"
       "  iapsim rl train runs/rl --stage ppo --ppo-workers 2\n"
       "  srun --ntasks=4 iapsim rl train runs/rl --stage ppo --ppo-workers 4");
   iapsim::bridge::HideEmptyDefaults(app);

@@ -5,7 +5,9 @@
 //   DIR/td3bc/checkpoint.pt                 learner, targets, optimisers, step (rl/td3bc.h)
 //   DIR/td3bc/log.csv, curves.png           losses and evaluations per `eval_every` updates (Fig. 19(a))
 //   DIR/td3bc/policy.pt                     the actor as TorchScript, for `iapsim rl eval --policy`
-//   DIR/ppo/checkpoint.pt                   PPO from td3bc/policy.pt (rl/ppo.h): networks, σ, optimisers
+//   DIR/iql/...                             the same for IQL (rl/iql.h), the other offline learner
+//   DIR/ppo/checkpoint.pt                   PPO from td3bc/ or iql/policy.pt (--offline; rl/ppo.h): networks,
+//                                           σ, optimisers
 //   DIR/ppo/log.csv, curves.png             rollouts and updates per iteration, evaluations every
 //                                           `ppo_eval_every` iterations (Fig. 19(a))
 //   DIR/ppo/policy.pt                       the deterministic actor as TorchScript
@@ -31,6 +33,7 @@
 
 #include "rl/dataset.h"
 #include "rl/evaluation.h"
+#include "rl/iql.h"
 #include "rl/ppo.h"
 #include "rl/td3bc.h"
 #include "rl/torchscript_policy.h"
@@ -43,8 +46,6 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-constexpr const char* kTd3BcLogHeader =
-    "step,critic_loss,actor_loss,behaviour_loss,q_mean,success_rate,docked_step_mean,return_mean,wall_s";
 constexpr const char* kPpoLogHeader =
     "iteration,env_steps,episodes,rollout_success_rate,rollout_return_mean,policy_loss,value_loss,approx_kl,"
     "anchor_kl,"
@@ -86,59 +87,107 @@ rl::EvaluationSummary Evaluate(const RlTrainArgs& args, const rl::DockingTaskCon
       args.expert.seed + 1, args.expert.threads));
 }
 
-void Td3BcStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& data_file) {
+// What each offline learner logs per row after its step, and how it is set up from the arguments.
+std::vector<double> LossColumns(const rl::Td3BcLosses& l) {
+  return {l.critic, l.actor, l.behaviour, l.q_mean};
+}
+std::vector<double> LossColumns(const rl::IqlLosses& l) {
+  return {l.critic, l.value, l.actor, l.behaviour, l.q_mean, l.advantage_std};
+}
+struct Td3BcStageTraits {
+  using Learner = rl::Td3Bc;
+  static constexpr const char* kName = "td3bc";
+  static constexpr const char* kLosses = "critic_loss,actor_loss,behaviour_loss,q_mean";
+  static int64_t Steps(const RlTrainArgs& args) { return args.td3bc_steps; }
+  static rl::Td3BcConfig Config(const RlTrainArgs& args) {
+    rl::Td3BcConfig config;
+    config.seed = args.expert.seed;
+    config.threads = args.expert.threads;
+    config.alpha = args.td3bc_alpha;
+    config.export_average = args.td3bc_policy == "average";
+    return config;
+  }
+};
+struct IqlStageTraits {
+  using Learner = rl::Iql;
+  static constexpr const char* kName = "iql";
+  static constexpr const char* kLosses =
+      "critic_loss,value_loss,actor_loss,behaviour_loss,q_mean,advantage_std";
+  static int64_t Steps(const RlTrainArgs& args) { return args.iql_steps; }
+  static rl::IqlConfig Config(const RlTrainArgs& args) {
+    rl::IqlConfig config;
+    config.seed = args.expert.seed;
+    config.threads = args.expert.threads;
+    config.expectile = args.iql_expectile;
+    config.beta = args.iql_beta;
+    config.export_average = args.iql_policy == "average";
+    return config;
+  }
+};
+
+// An offline learner (TD3-BC or IQL) on the expert's data set: updates in chunks of `eval_every`, after
+// each an exported policy, an evaluation, a log row and a checkpoint.
+template <class Traits>
+void OfflineStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& data_file) {
+  const char* name = Traits::kName;
   if (!fs::exists(data_file)) {
     throw std::invalid_argument(data_file.string() + ": no expert data set; run --stage expert first");
   }
   const rl::Dataset data = rl::ReadDataset(data_file.string());
   const rl::DockingTaskConfig task = rl::ReadDockingTask(args.expert.task, args.expert.overrides);
-  rl::Td3BcConfig config;
-  config.seed = args.expert.seed;
-  config.threads = args.expert.threads;
-  config.alpha = args.td3bc_alpha;
-  config.export_average = args.td3bc_policy == "average";
-  rl::Td3Bc learner(data, config);
+  typename Traits::Learner learner(data, Traits::Config(args));
+  const int64_t steps = Traits::Steps(args);
   const fs::path checkpoint = dir / "checkpoint.pt", log_file = dir / "log.csv", policy = dir / "policy.pt";
   if (fs::exists(checkpoint)) {
     learner.Load(checkpoint.string());
-    std::printf("td3bc: resuming from %s at update %lld\n", checkpoint.c_str(),
+    std::printf("%s: resuming from %s at update %lld\n", name, checkpoint.c_str(),
                 static_cast<long long>(learner.step()));
   }
-  StartLog(log_file, kTd3BcLogHeader, learner.step());
-  std::printf("td3bc: %lld transitions, %lld updates, evaluating %d episodes every %lld\n",
-              static_cast<long long>(data.size()), static_cast<long long>(args.td3bc_steps),
-              args.eval_episodes, static_cast<long long>(args.eval_every));
-  std::printf("  %8s %10s %10s %10s %9s %9s %8s\n", "update", "critic", "actor", "BC", "success", "docked",
-              "wall");
+  const std::string losses = Traits::kLosses;
+  StartLog(log_file, ("step," + losses + ",success_rate,docked_step_mean,return_mean,wall_s").c_str(),
+           learner.step());
+  std::printf("%s: %lld transitions, %lld updates, evaluating %d episodes every %lld\n", name,
+              static_cast<long long>(data.size()), static_cast<long long>(steps), args.eval_episodes,
+              static_cast<long long>(args.eval_every));
+  std::printf("  %8s", "update");
+  for (size_t at = 0; at != std::string::npos;) {  // the loss columns' names, without "_loss"
+    const size_t end = losses.find(',', at);
+    const std::string column = losses.substr(at, end == std::string::npos ? end : end - at);
+    std::printf(" %14s", column.substr(0, column.find("_loss")).c_str());
+    at = end == std::string::npos ? end : end + 1;
+  }
+  std::printf(" %9s %9s %8s\n", "success", "docked", "wall");
   const Clock::time_point start = Clock::now();
-  while (learner.step() < args.td3bc_steps) {
+  while (learner.step() < steps) {
     const int64_t chunk =
-        std::min(args.eval_every - learner.step() % args.eval_every, args.td3bc_steps - learner.step());
-    rl::Td3BcLosses mean;
+        std::min(args.eval_every - learner.step() % args.eval_every, steps - learner.step());
+    std::vector<double> mean;
     for (int64_t k = 0; k < chunk; ++k) {
-      const rl::Td3BcLosses losses = learner.Update();
-      mean.critic += losses.critic / chunk;
-      mean.actor += losses.actor / chunk;
-      mean.behaviour += losses.behaviour / chunk;
-      mean.q_mean += losses.q_mean / chunk;
+      const std::vector<double> columns = LossColumns(learner.Update());
+      mean.resize(columns.size(), 0.0);
+      for (size_t i = 0; i < columns.size(); ++i) mean[i] += columns[i] / chunk;
     }
     learner.ExportPolicy(policy.string());
     const rl::EvaluationSummary summary = Evaluate(args, task, policy.string());
     const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
-    std::ofstream(log_file, std::ios::app)
-        << learner.step() << "," << mean.critic << "," << mean.actor << "," << mean.behaviour << ","
-        << mean.q_mean << "," << summary.success_rate << "," << summary.docked_step_mean << ","
-        << summary.return_mean << "," << wall_s << "\n";
+    std::ofstream log(log_file, std::ios::app);
+    log << learner.step();
+    std::printf("  %8lld", static_cast<long long>(learner.step()));
+    for (const double value : mean) {
+      log << "," << value;
+      std::printf(" %14.4g", value);
+    }
+    log << "," << summary.success_rate << "," << summary.docked_step_mean << "," << summary.return_mean << ","
+        << wall_s << "\n";
+    log.close();
     learner.Save(checkpoint.string());
-    std::printf("  %8lld %10.4g %10.4g %10.4g %8.0f%% %9.0f %7.0fs\n", static_cast<long long>(learner.step()),
-                mean.critic, mean.actor, mean.behaviour, 100.0 * summary.success_rate,
-                summary.docked_step_mean, wall_s);
+    std::printf(" %8.0f%% %9.0f %7.0fs\n", 100.0 * summary.success_rate, summary.docked_step_mean, wall_s);
     std::fflush(stdout);
   }
-  const bool plotted =
-      learner.step() > 0 &&
-      RunPlotScript(IAPSIM_PLOT_TRAINING, {log_file.string(), (dir / "curves.png").string(), "TD3-BC"});
-  std::printf("td3bc: %s, %s%s\n", policy.c_str(), log_file.c_str(), plotted ? ", curves.png" : "");
+  const bool plotted = learner.step() > 0 &&
+                       RunPlotScript(IAPSIM_PLOT_TRAINING, {log_file.string(), (dir / "curves.png").string(),
+                                                            std::string(name) == "iql" ? "IQL" : "TD3-BC"});
+  std::printf("%s: %s, %s%s\n", name, policy.c_str(), log_file.c_str(), plotted ? ", curves.png" : "");
 }
 
 // The workers after the first, started by it as this program with its own arguments, --stage ppo and their
@@ -272,11 +321,11 @@ rl::PpoWorkers PpoWorkersOf(const RlTrainArgs& args, const fs::path& dir, bool* 
   return workers;
 }
 
-void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& td3bc_dir) {
-  const std::string initial = args.ppo_init.empty() ? (td3bc_dir / "policy.pt").string() : args.ppo_init;
+void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& offline_dir) {
+  const std::string initial = args.ppo_init.empty() ? (offline_dir / "policy.pt").string() : args.ppo_init;
   if (!fs::exists(initial)) {
-    throw std::invalid_argument(initial +
-                                ": no policy to start PPO from; run --stage td3bc first or pass --ppo-init");
+    throw std::invalid_argument(initial + ": no policy to start PPO from; run --stage " + args.offline +
+                                " first or pass --ppo-init");
   }
   const rl::DockingTaskConfig task = rl::ReadDockingTask(args.expert.task, args.expert.overrides);
   rl::PpoConfig config;
@@ -364,24 +413,36 @@ void PpoStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& td3b
 
 int RlTrain(const RlTrainArgs& args) {
   return RunRlCommand("train", [&] {
-    if (args.stage != "expert" && args.stage != "td3bc" && args.stage != "ppo" && args.stage != "all") {
-      throw std::invalid_argument("--stage: expected expert, td3bc, ppo or all, got '" + args.stage + "'");
+    if (args.stage != "expert" && args.stage != "td3bc" && args.stage != "iql" && args.stage != "ppo" &&
+        args.stage != "all") {
+      throw std::invalid_argument("--stage: expected expert, td3bc, iql, ppo or all, got '" + args.stage +
+                                  "'");
+    }
+    if (args.offline != "td3bc" && args.offline != "iql") {
+      throw std::invalid_argument("--offline: expected td3bc or iql, got '" + args.offline + "'");
     }
     const char* step_tasks = std::getenv("SLURM_STEP_NUM_TASKS");
     if (args.ppo_workers > 1 && step_tasks && std::atoi(step_tasks) > 1 && args.stage != "ppo") {
-      throw std::invalid_argument("--stage " + args.stage + " under srun --ntasks=" + step_tasks +
-                                  ": each task would run the expert and TD3-BC; run those alone, then srun "
-                                  "the PPO stage (--stage ppo)");
+      throw std::invalid_argument(
+          "--stage " + args.stage + " under srun --ntasks=" + step_tasks +
+          ": each task would run the expert and the offline learner; run those alone, then srun "
+          "the PPO stage (--stage ppo)");
     }
     const fs::path out(args.out_dir);
     fs::create_directories(out / "expert");
-    fs::create_directories(out / "td3bc");
     fs::create_directories(out / "ppo");
+    const fs::path data = out / "expert" / "data.hdf5";
     if (args.stage == "expert" || args.stage == "all") ExpertStage(args, out / "expert");
-    if (args.stage == "td3bc" || args.stage == "all") {
-      Td3BcStage(args, out / "td3bc", out / "expert" / "data.hdf5");
+    const bool all = args.stage == "all";
+    if (args.stage == "td3bc" || (all && args.offline == "td3bc")) {
+      fs::create_directories(out / "td3bc");
+      OfflineStage<Td3BcStageTraits>(args, out / "td3bc", data);
     }
-    if (args.stage == "ppo" || args.stage == "all") PpoStage(args, out / "ppo", out / "td3bc");
+    if (args.stage == "iql" || (all && args.offline == "iql")) {
+      fs::create_directories(out / "iql");
+      OfflineStage<IqlStageTraits>(args, out / "iql", data);
+    }
+    if (args.stage == "ppo" || all) PpoStage(args, out / "ppo", out / args.offline);
     return 0;
   });
 }
