@@ -14,6 +14,7 @@
 #include <random>
 #include <thread>
 
+#include "bridge/control_channel.h"
 #include "bridge/internal/shm_transport.h"
 #include "bridge/internal/zap_gate.h"
 #include "bridge/testing/busy_loops.h"
@@ -720,6 +721,29 @@ TEST(ZapGate, CountsFailedHandshakesUntilItStopsWatching) {
   attempt(std::chrono::milliseconds(300), [] { return false; });
   EXPECT_GT(checked, checks_before);  // still checked and refused
   EXPECT_EQ(gate.refused(), counted);
+}
+
+// A process the launcher refuses (another run's secret) knows it, and does not wait the linger meant for a
+// final report at close: its messages never leave. One it accepts is not refused.
+TEST(ControlClient, ARefusedClientKnowsItAndDoesNotLingerAtClose) {
+  const std::string endpoint = "ipc://@iapsim-control-refusal-test-" + std::to_string(getpid());
+  ControlServer server(endpoint, "the run's secret", {"physics"});
+  ControlClient accepted(endpoint, "physics", "the run's secret");
+  auto refused = std::make_unique<ControlClient>(endpoint, "physics", "another run's secret");
+  accepted.Send("hello");
+  refused->Send("done");
+  bool heard = false;
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while ((!heard || !refused->Refused()) && std::chrono::steady_clock::now() < give_up) {
+    if (const auto message = server.Receive(milliseconds(10))) heard = heard || message->kind == "hello";
+  }
+  EXPECT_TRUE(heard);
+  ASSERT_TRUE(refused->Refused());
+  EXPECT_FALSE(accepted.Refused());
+  EXPECT_GE(server.refused(), 1u);
+  const auto start = std::chrono::steady_clock::now();
+  refused.reset();  // "done" is still queued: a client that lingered would wait its 1000 ms here
+  EXPECT_LT(std::chrono::steady_clock::now() - start, milliseconds(900));
 }
 
 }  // namespace

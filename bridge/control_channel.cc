@@ -39,6 +39,26 @@ std::optional<ControlMessage> ReadKindAndBody(zmq::socket_t& socket, ControlMess
 struct ControlClient::Impl {
   zmq::context_t context{1};
   zmq::socket_t socket{context, zmq::socket_type::dealer};
+  zmq::socket_t handshakes;  // the socket's handshake outcomes (internal::MonitorSocket)
+  bool accepted = false;
+  bool failed = false;  // a handshake failed
+  bool denied = false;  // ... because the launcher's ZAP handler said no (ZeroMQ RFC 27's status 400)
+
+  void ReadHandshakes() {
+    if (!handshakes) return;  // the constructor failed before it monitored
+    for (const uint16_t id : internal::TakeEvents(handshakes)) {
+      accepted = accepted || id == ZMQ_EVENT_HANDSHAKE_SUCCEEDED;
+      failed = failed || id != ZMQ_EVENT_HANDSHAKE_SUCCEEDED;
+      denied = denied || id == ZMQ_EVENT_HANDSHAKE_FAILED_AUTH;
+    }
+  }
+  // A client that never got in has no way to deliver: it does not linger for its messages at close, as it
+  // does for a final report to a launcher that let it in or has not answered yet.
+  ~Impl() {
+    ReadHandshakes();
+    if (failed && !accepted) socket.set(zmq::sockopt::linger, 0);
+    if (handshakes) zmq_socket_monitor(socket.handle(), nullptr, 0);  // before the socket closes (ZapGate)
+  }
 };
 
 ControlClient::ControlClient(const std::string& endpoint, const std::string& process,
@@ -61,6 +81,10 @@ ControlClient::ControlClient(const std::string& endpoint, const std::string& pro
   }
   impl_->socket.set(zmq::sockopt::linger, 1000);  // a final report still leaves after close
   impl_->socket.set(zmq::sockopt::reconnect_ivl, 10);
+  impl_->handshakes =
+      internal::MonitorSocket(impl_->context, impl_->socket,
+                              ZMQ_EVENT_HANDSHAKE_SUCCEEDED | ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL |
+                                  ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL | ZMQ_EVENT_HANDSHAKE_FAILED_AUTH);
   try {
     impl_->socket.connect(endpoint);
   } catch (const zmq::error_t& e) {
@@ -72,6 +96,7 @@ ControlClient::ControlClient(const std::string& endpoint, const std::string& pro
 ControlClient::~ControlClient() = default;
 
 void ControlClient::Send(const std::string& kind, const std::string& body) {
+  if (Refused()) return;  // nothing would leave, and a DEALER whose only peer refused it blocks in send
   impl_->socket.send(zmq::buffer(kind), zmq::send_flags::sndmore);
   impl_->socket.send(zmq::buffer(body), zmq::send_flags::none);
 }
@@ -79,6 +104,11 @@ void ControlClient::Send(const std::string& kind, const std::string& body) {
 std::optional<ControlMessage> ControlClient::Receive(std::chrono::milliseconds timeout) {
   if (!internal::PollOne(impl_->socket, ZMQ_POLLIN, timeout)) return std::nullopt;
   return ReadKindAndBody(impl_->socket, ControlMessage{});
+}
+
+bool ControlClient::Refused() {
+  impl_->ReadHandshakes();
+  return impl_->denied && !impl_->accepted;
 }
 
 struct ControlServer::Impl {

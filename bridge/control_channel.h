@@ -34,9 +34,13 @@ class ControlClient {
  public:
   ControlClient(const std::string& endpoint, const std::string& process, const std::string& secret);
   ~ControlClient();
+  /// Queues a message for the launcher (dropped once the launcher has refused this client: Refused).
   void Send(const std::string& kind, const std::string& body = "");
   /// A message from the launcher if one arrives within `timeout`.
   std::optional<ControlMessage> Receive(std::chrono::milliseconds timeout);
+  /// Whether the launcher has refused this client's credentials (and never accepted them): its messages
+  /// never leave. A client that never got in does not linger 1 s for them at close as it does otherwise.
+  bool Refused();
 
  private:
   struct Impl;

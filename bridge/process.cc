@@ -182,6 +182,12 @@ class Runtime {
         if (message->kind == "start") start_received_ = true;
         if (message->kind == "stop") stop_received_ = true;
       }
+      if (control_.Refused()) {  // a process started by hand with another run's secret, or under another name
+        throw std::runtime_error(
+            "the launcher at " + scenario_.bus.control_endpoint + " refused '" + self_.name +
+            "': not a process of its run, or another run's secret (IAPSIM_RUN_SECRET, or "
+            "RUN/secret through --run-dir)");
+      }
       // a process on another host (external, or a Slurm job step) does not die with the launcher (no
       // PR_SET_PDEATHSIG across hosts): the launcher's messages are its heartbeat, as its are the launcher's
       const auto silent = std::chrono::duration<double>(now - last_launcher_message_);

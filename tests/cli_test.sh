@@ -40,11 +40,20 @@ grep -q "seed: 3" "$work/run/scenario.resolved.yaml" || fail "--seed not in the 
 
 # one process started by hand (host: external, as under a debugger) on the default shared-memory bus: the
 # launcher prints its command (the run folder's path quoted: it has a space) and waits for it, and the run
-# records the same bag
+# records the same bag (after a start with the wrong secret, refused)
 "$iapsim" run "$src/configs/scenarios/bus_demo.yaml" --duration 1 --seed 3 --set processes.control.host=external \
   --out "$work/by hand" > "$work/by_hand.out" 2>&1 &
 run=$!
 for _ in $(seq 200); do [ -x "$work/by hand/external/control.sh" ] && break; sleep 0.05; done
+# first with another run's secret: the launcher refuses it, and it says so and exits 1 at once (not after its
+# hang_timeout_s); the run waits on for the real one
+set +e
+IAPSIM_RUN_SECRET=$(printf '%064d' 0) timeout 60 "$work/by hand/external/control.sh" > "$work/by_hand_refused.log" 2>&1
+code=$?
+set -e
+[ $code -eq 1 ] || fail "control with another run's secret exited $code: $(cat "$work/by_hand_refused.log")"
+grep -q "refused 'control': not a process of its run, or another run's secret" "$work/by_hand_refused.log" ||
+  fail "control with another run's secret: $(cat "$work/by_hand_refused.log")"
 "$work/by hand/external/control.sh" > "$work/by_hand_control.log" 2>&1 || fail "control by hand: $(cat "$work/by_hand_control.log")"
 wait_code $run
 [ "$code" -eq 0 ] || fail "a run with a process started by hand exited $code: $(cat "$work/by_hand.out")"

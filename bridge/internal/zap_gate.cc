@@ -49,15 +49,10 @@ ZapGate::ZapGate(zmq::context_t& context, Check check)
 }
 
 void ZapGate::Watch(zmq::socket_t& socket) {
-  // one monitor endpoint per gate (inproc names are per context, but a process may have several contexts)
-  static std::atomic<int> next{0};
-  const std::string endpoint = "inproc://iapsim-zap-monitor-" + std::to_string(next++);
-  if (zmq_socket_monitor(socket.handle(), endpoint.c_str(),
-                         ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |
-                             ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) != 0) {
-    throw std::runtime_error(std::string("cannot monitor a socket: ") + zmq_strerror(zmq_errno()));
-  }
-  monitors_.emplace_back(context_, zmq::socket_type::pair).connect(endpoint);
+  monitors_.push_back(MonitorSocket(context_, socket,
+                                    ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL |
+                                        ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |
+                                        ZMQ_EVENT_HANDSHAKE_FAILED_AUTH));
   watched_.push_back(socket.handle());
 }
 
@@ -90,12 +85,7 @@ void ZapGate::Serve() {
     }
   }
   for (zmq::socket_t& monitor : monitors_) {
-    while (true) {
-      const std::vector<std::string> event = ReadFrames(monitor);
-      if (event.empty()) break;
-      if (event[0].size() < 2) continue;
-      uint16_t id;
-      std::memcpy(&id, event[0].data(), 2);
+    for (const uint16_t id : TakeEvents(monitor)) {
       ++refused_;
       // a refused check was described by Serve; the others never reached it
       if (id != ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) {
@@ -103,6 +93,31 @@ void ZapGate::Serve() {
       }
     }
   }
+}
+
+zmq::socket_t MonitorSocket(zmq::context_t& context, zmq::socket_t& socket, int events) {
+  // one endpoint per monitor (inproc names are per context, but a process may have several contexts)
+  static std::atomic<int> next{0};
+  const std::string endpoint = "inproc://iapsim-monitor-" + std::to_string(next++);
+  if (zmq_socket_monitor(socket.handle(), endpoint.c_str(), events) != 0) {
+    throw std::runtime_error(std::string("cannot monitor a socket: ") + zmq_strerror(zmq_errno()));
+  }
+  zmq::socket_t monitor(context, zmq::socket_type::pair);
+  monitor.connect(endpoint);
+  return monitor;
+}
+
+std::vector<uint16_t> TakeEvents(zmq::socket_t& monitor) {
+  std::vector<uint16_t> ids;
+  while (true) {
+    const std::vector<std::string> event = ReadFrames(monitor);  // the id and value, then the endpoint
+    if (event.empty()) break;
+    if (event[0].size() < 2) continue;
+    uint16_t id;
+    std::memcpy(&id, event[0].data(), 2);
+    ids.push_back(id);
+  }
+  return ids;
 }
 
 void ZapGate::Describe(const std::string& refusal) {

@@ -60,6 +60,12 @@ class ZapGate {
   std::set<std::string> described_;
 };
 
+/// A PAIR socket of `context` that receives the `events` (ZMQ_EVENT_* bits) of `socket`. Stop it with
+/// zmq_socket_monitor(socket, nullptr, 0) before `socket` closes (ZapGate::StopWatching says why).
+zmq::socket_t MonitorSocket(zmq::context_t& context, zmq::socket_t& socket, int events);
+/// The ids (ZMQ_EVENT_*) of the events waiting on a MonitorSocket, oldest first; never blocks.
+std::vector<uint16_t> TakeEvents(zmq::socket_t& monitor);
+
 /// The CURVE keys of a run (Z85 text), all derived from its secret (bridge/run_secret.h): the run's
 /// publishers share one server key pair, its processes' subscribers one client key pair, and subscribers
 /// that are not of the run (`iapsim echo`) another. Only a holder of the secret can complete a handshake,
