@@ -105,7 +105,7 @@ struct Ppo::Impl {
 
   void UseThreads() const {
     // a TorchScript policy evaluated in between sets one thread (rl/torchscript_policy.h)
-    if (at::get_num_threads() != config.threads) at::set_num_threads(config.threads);
+    if (at::get_num_threads() != config.torch_threads) at::set_num_threads(config.torch_threads);
   }
   torch::Tensor Mean(const torch::Tensor& s) { return torch::tanh(actor->forward(s)); }
   torch::Tensor Value(const torch::Tensor& s) { return value->forward(s).squeeze(-1); }
@@ -128,6 +128,7 @@ Ppo::Ppo(const DockingTaskConfig& task, const PpoConfig& config, const std::stri
   Require(config.epochs >= 1, "epochs", "at least 1");
   Require(config.minibatch >= 2, "minibatch", "at least 2 (advantages are normalised per minibatch)");
   Require(config.threads >= 1, "threads", "at least 1");
+  Require(config.torch_threads >= 1, "torch_threads", "at least 1");
   Require(config.clip > 0.0, "clip", "positive");
   Require(config.initial_std > 0.0, "initial_std", "positive");
   Require(config.reward_scale > 0.0, "reward_scale", "positive");

@@ -71,7 +71,8 @@ struct PpoConfig {
   int value_warmup_iterations = 5;
   int value_hidden = 256;
   uint64_t seed = 1;
-  int threads = 1;  // environment threads and libtorch's intra-op threads
+  int threads = 1;        // environment threads
+  int torch_threads = 1;  // libtorch's intra-op threads for the policy and the updates (rl/torch_networks.h)
 };
 
 /// Who this learner is among several that train one policy together; world 1: alone.

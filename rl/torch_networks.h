@@ -18,6 +18,12 @@
 
 namespace iapsim::rl {
 
+// The learners' libtorch intra-op threads (their `threads`/`torch_threads`) default to one: their networks
+// (256 wide) and batches (256 rows; PPO's 2,000) are too small to share, and on the 2-core development
+// machine two threads made 1,000 TD3-BC updates take 53.8 s instead of 16.5 s, IQL's 65.7 s instead of 18.9
+// s, and a PPO iteration (16 x 2000 steps, 10 epochs) 27 s instead of 13 s (2026-11-28): the threads'
+// synchronisation costs more than the arithmetic they share.
+
 // Three linear layers with ReLUs between them: every actor, critic and value network.
 struct MlpImpl : torch::nn::Module {
   MlpImpl(int64_t in, int64_t hidden, int64_t out)

@@ -101,8 +101,7 @@ struct Td3BcStageTraits {
   static int64_t Steps(const RlTrainArgs& args) { return args.td3bc_steps; }
   static rl::Td3BcConfig Config(const RlTrainArgs& args) {
     rl::Td3BcConfig config;
-    config.seed = args.expert.seed;
-    config.threads = args.expert.threads;
+    config.seed = args.expert.seed;  // one libtorch thread (rl/torch_networks.h); --threads flies evaluations
     config.alpha = args.td3bc_alpha;
     config.export_average = args.td3bc_policy == "average";
     return config;
@@ -116,8 +115,7 @@ struct IqlStageTraits {
   static int64_t Steps(const RlTrainArgs& args) { return args.iql_steps; }
   static rl::IqlConfig Config(const RlTrainArgs& args) {
     rl::IqlConfig config;
-    config.seed = args.expert.seed;
-    config.threads = args.expert.threads;
+    config.seed = args.expert.seed;  // one libtorch thread, as TD3-BC's
     config.expectile = args.iql_expectile;
     config.beta = args.iql_beta;
     config.export_average = args.iql_policy == "average";
