@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
   train_cmd->footer(
       "Examples:\n"
       "  iapsim rl train runs/rl --td3bc-alpha 0 --td3bc-steps 4000 --ppo-iterations 0\n"
-      "  iapsim rl train runs/rl --offline iql --iql-steps 10000\n"
+      "  iapsim rl train runs/rl --expert-action-noise 0.14 --offline iql --iql-beta 0 --iql-steps 12000\n"
       "  iapsim rl train runs/rl --stage ppo --ppo-workers 2\n"
       "  srun --ntasks=4 iapsim rl train runs/rl --stage ppo --ppo-workers 4");
   iapsim::bridge::HideEmptyDefaults(app);
