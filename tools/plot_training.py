@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Plots a training log of `iapsim rl train` (td3bc/log.csv or ppo/log.csv) like the seed's Fig. 19(a).
+"""Plots a training log of `iapsim rl train` (td3bc/, iql/ or ppo/log.csv) like the seed's Fig. 19(a).
 
 usage: plot_training.py LOG_CSV OUT_PNG TITLE
   -> OUT_PNG: the success rate and the mean episode return of each evaluation (PPO: also of each iteration's
-     rollouts, with exploration noise), and the losses, per update (TD3-BC) or iteration (PPO).
+     rollouts, with exploration noise), and the losses, per update (TD3-BC, IQL) or iteration (PPO).
 """
 import csv
 import math
@@ -40,7 +40,7 @@ def main(log_path, out_path, title):
     success.set(xlabel=x_name, ylabel="success (%)", ylim=(-5, 105), title="docked and hovering 1 s")
     returns.set(xlabel=x_name, ylabel="mean episode return", title="return")
     for key, label in (("critic_loss", "critic (twin TD)"), ("behaviour_loss", "behaviour cloning"),
-                       ("value_loss", "value (scaled returns)"), ("approx_kl", "approx. KL")):
+                       ("value_loss", "value (PPO: scaled returns; IQL: expectile)"), ("approx_kl", "approx. KL")):
         if key in column:
             losses.plot(x, column[key], label=label)
     losses.set(xlabel=x_name, yscale="log", title="losses (means per row)")

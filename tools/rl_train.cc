@@ -97,7 +97,10 @@ std::vector<double> LossColumns(const rl::IqlLosses& l) {
 struct Td3BcStageTraits {
   using Learner = rl::Td3Bc;
   static constexpr const char* kName = "td3bc";
-  static constexpr const char* kLosses = "critic_loss,actor_loss,behaviour_loss,q_mean";
+  static constexpr const char* kTitle = "TD3-BC";
+  static std::vector<std::string> Losses() {
+    return {"critic_loss", "actor_loss", "behaviour_loss", "q_mean"};
+  }
   static int64_t Steps(const RlTrainArgs& args) { return args.td3bc_steps; }
   static rl::Td3BcConfig Config(const RlTrainArgs& args) {
     rl::Td3BcConfig config;
@@ -110,8 +113,10 @@ struct Td3BcStageTraits {
 struct IqlStageTraits {
   using Learner = rl::Iql;
   static constexpr const char* kName = "iql";
-  static constexpr const char* kLosses =
-      "critic_loss,value_loss,actor_loss,behaviour_loss,q_mean,advantage_std";
+  static constexpr const char* kTitle = "IQL";
+  static std::vector<std::string> Losses() {
+    return {"critic_loss", "value_loss", "actor_loss", "behaviour_loss", "q_mean", "advantage_std"};
+  }
   static int64_t Steps(const RlTrainArgs& args) { return args.iql_steps; }
   static rl::IqlConfig Config(const RlTrainArgs& args) {
     rl::IqlConfig config;
@@ -141,18 +146,15 @@ void OfflineStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& 
     std::printf("%s: resuming from %s at update %lld\n", name, checkpoint.c_str(),
                 static_cast<long long>(learner.step()));
   }
-  const std::string losses = Traits::kLosses;
-  StartLog(log_file, ("step," + losses + ",success_rate,docked_step_mean,return_mean,wall_s").c_str(),
-           learner.step());
+  std::string header = "step";
+  for (const std::string& column : Traits::Losses()) header += "," + column;
+  StartLog(log_file, (header + ",success_rate,docked_step_mean,return_mean,wall_s").c_str(), learner.step());
   std::printf("%s: %lld transitions, %lld updates, evaluating %d episodes every %lld\n", name,
               static_cast<long long>(data.size()), static_cast<long long>(steps), args.eval_episodes,
               static_cast<long long>(args.eval_every));
   std::printf("  %8s", "update");
-  for (size_t at = 0; at != std::string::npos;) {  // the loss columns' names, without "_loss"
-    const size_t end = losses.find(',', at);
-    const std::string column = losses.substr(at, end == std::string::npos ? end : end - at);
+  for (const std::string& column : Traits::Losses()) {
     std::printf(" %14s", column.substr(0, column.find("_loss")).c_str());
-    at = end == std::string::npos ? end : end + 1;
   }
   std::printf(" %9s %9s %8s\n", "success", "docked", "wall");
   const Clock::time_point start = Clock::now();
@@ -182,9 +184,9 @@ void OfflineStage(const RlTrainArgs& args, const fs::path& dir, const fs::path& 
     std::printf(" %8.0f%% %9.0f %7.0fs\n", 100.0 * summary.success_rate, summary.docked_step_mean, wall_s);
     std::fflush(stdout);
   }
-  const bool plotted = learner.step() > 0 &&
-                       RunPlotScript(IAPSIM_PLOT_TRAINING, {log_file.string(), (dir / "curves.png").string(),
-                                                            std::string(name) == "iql" ? "IQL" : "TD3-BC"});
+  const bool plotted =
+      learner.step() > 0 &&
+      RunPlotScript(IAPSIM_PLOT_TRAINING, {log_file.string(), (dir / "curves.png").string(), Traits::kTitle});
   std::printf("%s: %s, %s%s\n", name, policy.c_str(), log_file.c_str(), plotted ? ", curves.png" : "");
 }
 
