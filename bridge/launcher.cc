@@ -438,7 +438,7 @@ class Supervisor {
     const double factor = sim_s / std::max(1e-9, wall_s());
     if (plain_progress_) {
       std::fprintf(stderr, "iapsim run: t = %.1f of %.1f s, %.2fx real time, about %.0f s to go\n", sim_s,
-                   scenario_.duration_s, factor, factor > 0 ? (scenario_.duration_s - sim_s) / factor : 0.0);
+                   scenario_.run_s(), factor, factor > 0 ? (scenario_.run_s() - sim_s) / factor : 0.0);
       return;
     }
     std::string health;
@@ -446,7 +446,7 @@ class Supervisor {
       const bool late = now - c.last_heartbeat > std::chrono::duration<double>(c.hang_timeout_s / 2);
       health += " " + c.name + (c.exited ? ":exited" : late ? ":slow" : ":ok");
     }
-    std::fprintf(stderr, "\33[2K\r t = %.3f / %.3f s  x%.2f |%s", sim_s, scenario_.duration_s, factor,
+    std::fprintf(stderr, "\33[2K\r t = %.3f / %.3f s  x%.2f |%s", sim_s, scenario_.run_s(), factor,
                  health.c_str());
   }
 
@@ -820,6 +820,7 @@ LaunchResult Launch(const LaunchOptions& options) {
   metrics["seed"] = scenario.seed;
   metrics["fidelity"] = scenario.fidelity;
   metrics["duration_s"] = scenario.duration_s;
+  metrics["lead_in_s"] = scenario.lead_in_s;
   metrics["clock_step_s"] = scenario.clock.step_s;
   metrics["result"] = failure.empty() ? "completed" : "failed";
   if (!failure.empty()) metrics["failure"] = failure;

@@ -43,11 +43,13 @@ class Replayer : public Process {
     double offset_s = context.scenario.clock.step_s;
     params.OptionalInRange("time_offset_s", &offset_s, context.scenario.clock.step_s, 1e7);
     params.Optional("restamp", &restamp_);
-    // the earliest message of the log plays at time_offset_s; order by message time
+    // the earliest message of the log plays at time_offset_s of the scenario's time (after its lead-in);
+    // order by message time
     std::stable_sort(queue_.begin(), queue_.end(),
                      [](const Scheduled& a, const Scheduled& b) { return a.due_ns < b.due_ns; });
     const int64_t origin_ns = queue_.empty() ? 0 : queue_.front().due_ns;
-    for (auto& m : queue_) m.due_ns += std::llround(offset_s * 1e9) - origin_ns;
+    for (auto& m : queue_)
+      m.due_ns += context.scenario.lead_in_ns() + std::llround(offset_s * 1e9) - origin_ns;
   }
 
   void Setup(Bus& bus) override { bus_ = &bus; }

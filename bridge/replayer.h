@@ -9,8 +9,9 @@
 //
 // Timing: a message's time t_m is its header.stamp when it starts with a std_msgs/Header and the stamp is
 // set (not 0), or a file line's time, else its record time. It is due at sim time t = t_m - (earliest t_m of
-// the log) + time_offset_s and is published during the step before t, so every consumer has it when it acts
-// at step t (deterministic in lockstep). With restamp (default) header.stamp becomes t.
+// the log) + time_offset_s + the scenario's lead_in_s and is published during the step before t, so every
+// consumer has it when it acts at step t (deterministic in lockstep). With restamp (default) header.stamp
+// becomes t.
 //
 // params: bag (file), topics (list; empty: all), map (list of "FROM:=TO" renames), as_pose (bool),
 // pose_field (with as_pose: a field path such as "bodies[0].pose_W"), or file (pose file), format (tum |

@@ -193,6 +193,12 @@ void ApplyFidelityProfile(YAML::Node root, const std::string& scenario_path, std
   YamlMap profile(LoadYamlFile(path), path);
   std::string description;
   profile.Optional("description", &description);
+  // a profile's flights may start from a hover settled in its conditions (the scenario's own key wins)
+  if (profile.Has("lead_in_s")) {
+    double lead_in_s = 0.0;
+    profile.OptionalInRange("lead_in_s", &lead_in_s, 0.0, 1e4);
+    if (!root["lead_in_s"]) root["lead_in_s"] = lead_in_s;
+  }
   const YAML::Node scenario_processes = root["processes"];
   YamlMap by_exec = profile.Map("processes");
   std::set<std::string> found_execs;
@@ -290,7 +296,11 @@ double RecordingConfig::MaxRateHz(const std::string& topic) const {
 int64_t Scenario::step_ns() const { return std::llround(clock.step_s * 1e9); }
 
 uint64_t Scenario::last_step() const {
-  return static_cast<uint64_t>(std::llround(duration_s * 1e9 / static_cast<double>(step_ns())));
+  return static_cast<uint64_t>(std::llround((lead_in_s + duration_s) * 1e9 / static_cast<double>(step_ns())));
+}
+
+int64_t Scenario::lead_in_ns() const {
+  return std::llround(lead_in_s * 1e9 / static_cast<double>(step_ns())) * step_ns();
 }
 
 const ProcessConfig* Scenario::Find(const std::string& process) const {
@@ -324,6 +334,7 @@ Scenario Load(const std::string& path, const std::vector<std::string>& overrides
   top.OptionalChoice("mode", &mode, {"lockstep", "fast", "realtime"});
   s.mode = ParseMode(mode);
   top.OptionalInRange("duration_s", &s.duration_s, 1e-6, 1e7);
+  top.OptionalInRange("lead_in_s", &s.lead_in_s, 0.0, 1e4);
   top.Optional("seed", &s.seed);
 
   YamlMap clock = top.Map("clock");
@@ -331,10 +342,14 @@ Scenario Load(const std::string& path, const std::vector<std::string>& overrides
   clock.OptionalInRange("ack_timeout_s", &s.clock.ack_timeout_s, 0.01, 3600.0);
   clock.OptionalInRange("realtime_factor", &s.clock.realtime_factor, 1e-3, 1e3);
   clock.Finish();
-  const double steps = s.duration_s / s.clock.step_s;
-  if (std::fabs(steps - std::round(steps)) > 1e-6 * std::max(1.0, steps)) {
-    top.Fail("duration_s",
-             "must be a whole number of clock steps (clock.step_s = " + std::to_string(s.clock.step_s) + ")");
+  using Seconds = std::pair<const char*, double>;
+  for (const auto& [key, seconds] :
+       {Seconds{"duration_s", s.duration_s}, Seconds{"lead_in_s", s.lead_in_s}}) {
+    const double steps = seconds / s.clock.step_s;
+    if (std::fabs(steps - std::round(steps)) > 1e-6 * std::max(1.0, steps)) {
+      top.Fail(key, "must be a whole number of clock steps (clock.step_s = " +
+                        std::to_string(s.clock.step_s) + ")");
+    }
   }
 
   YamlMap bus = top.Map("bus");

@@ -114,6 +114,9 @@ struct Scenario {
   std::string description;
   ClockMode mode = ClockMode::kLockstep;
   double duration_s = 10.0;
+  // the run flies this long before the scenario's time 0 (trajectories held at their start, gusts and the
+  // evaluation shifted): a real flight's take-off and hover, in which the integrators settle in the wind
+  double lead_in_s = 0.0;
   uint64_t seed = 1;
   // ideal: the scenario as written; a profile's name or file: its settings fill what the scenario leaves out
   std::string fidelity = "ideal";
@@ -126,7 +129,9 @@ struct Scenario {
   YAML::Node resolved;                   // every value as used, defaults included
 
   int64_t step_ns() const;
-  uint64_t last_step() const;  // K: steps run are k = 0..K, t_K = duration
+  uint64_t last_step() const;  // K: steps run are k = 0..K, t_K = lead_in + duration
+  int64_t lead_in_ns() const;  // the physics stamp of the scenario's time 0
+  double run_s() const { return lead_in_s + duration_s; }  // physics time the run lasts
   const ProcessConfig* Find(const std::string& process) const;
   /// Seed for one process's random streams, derived from the scenario seed and the process name.
   uint64_t SeedFor(const std::string& process) const;

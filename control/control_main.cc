@@ -2,12 +2,12 @@
 // the vehicle's state into per-sub-aircraft commands for the simulated flight controllers.
 //
 //   mode: track   the tracker (10) or (16), picked by the rank test (8), follows `trajectory` (time 0 = the
-//                 first state) or the pose commands arriving on `reference.topic` (a replayed command log:
-//                 `iapsim replay`), through `reference.shaping` (control/commanded_reference.h);
-//                 allocation (17) within the thrust limits; (18) per sub-aircraft.
-//                 interaction: admittance  (19)-(20) (Table IV) revise the reference from the contact
-//                 wrench, which (10) also feeds forward (§VI-E); direct_wrench: (21) (Table V) takes over
-//                 from (10) once contact holds and drives the contact wrench to a command (§VI-F). The
+//                 scenario's, after its lead_in_s, or the first state if later) or the pose commands arriving
+//                 on `reference.topic` (a replayed command log: `iapsim replay`), through `reference.shaping`
+//                 (control/commanded_reference.h); allocation (17) within the thrust limits; (18) per
+//                 sub-aircraft. interaction: admittance  (19)-(20) (Table IV) revise the reference from the
+//                 contact wrench, which (10) also feeds forward (§VI-E); direct_wrench: (21) (Table V) takes
+//                 over from (10) once contact holds and drives the contact wrench to a command (§VI-F). The
 //                 wrench comes from wrench_topic (the sensors' low-passed wrench; give this process
 //                 `after: [sensors]` in lockstep so it reads the wrench of its own step).
 //   odometry_topic  the platform's pose and twist come from this nav_msgs/Odometry (the sensors process's
@@ -104,6 +104,7 @@ class ControlNode : public bridge::Process {
     }
     const double step_s = context.scenario.clock.step_s;
     step_ns_ = static_cast<int64_t>(std::llround(step_s * 1e9));
+    lead_in_ns_ = context.scenario.lead_in_ns();
     try {  // one jitter stream per input
       states_.emplace(bridge::LinkDelay(delay_s, jitter_s, step_s, context.seed), step_ns_);
       wrenches_.emplace(bridge::LinkDelay(delay_s, jitter_s, step_s, context.seed + 0x9E3779B97F4A7C15ULL),
@@ -301,8 +302,9 @@ class ControlNode : public bridge::Process {
 
  private:
   void Track() {
-    // the trajectory's time 0 is the first state's, whenever it arrived
-    if (!start_ns_) start_ns_ = measured().stamp_ns;
+    // the trajectory's time 0 is the scenario's (after its lead-in, which holds the start), or the first
+    // state's if that arrived later
+    if (!start_ns_) start_ns_ = std::max(measured().stamp_ns, lead_in_ns_);
     const double t_s = static_cast<double>(bridge::ToNanoseconds(now_) - *start_ns_) * 1e-9;
     if (!hold_) {  // before the first pose command: stay where the flight starts
       hold_.emplace();
@@ -422,6 +424,7 @@ class ControlNode : public bridge::Process {
   // what has arrived over the sensor link
   std::string odometry_topic_;  // empty: the true state
   int64_t step_ns_ = 1;
+  int64_t lead_in_ns_ = 0;
   std::optional<SensorLink<Measured>> states_;
   std::optional<SensorLink<geometry_msgs::WrenchStamped>> wrenches_;
   std::optional<int64_t> newest_state_ns_;  // received, arrived or not

@@ -87,6 +87,8 @@ class PhysicsNode : public bridge::Process {
   PhysicsNode(const bridge::ProcessContext& context, bridge::YamlMap& params)
       : config_(ReadPhysicsConfig(params, context.scenario.file, context.scenario.clock.step_s)) {
     config_.simulation.seed = context.seed;
+    // a gust's start is in the scenario's time, which begins after the lead-in
+    for (DiscreteGust& gust : config_.simulation.air.gusts) gust.start_s += context.scenario.lead_in_s;
     true_model_ = DrawTrueModel(config_.uncertainty, context.seed, &config_.simulation);
     try {
       sim_ = std::make_unique<Simulation>(config_.simulation);

@@ -333,6 +333,32 @@ grep -q "position RMSE" "$work/evaluate.out" || fail "evaluate: $(cat "$work/eva
 for png in tracking_pose.png tracking_error.png; do
   [ -s "$work/spiral/$png" ] || fail "no $png"
 done
+# a lead-in: the IAP hovers at the trajectory's start for 0.5 s first; the run lasts that much longer, the
+# trajectory and the evaluation start after it (the same references at the same scenario times)
+"$iapsim" run "$src/configs/regression/three_star_spiral.yaml" --duration 2 --set lead_in_s=0.5 \
+  --out "$work/spiral_led_in" > "$work/led_in.out" 2>&1 || fail "led-in run: $(cat "$work/led_in.out")"
+/usr/bin/python3 - "$work/spiral" "$work/spiral_led_in" <<'PY' || fail "lead-in"
+import csv, json, sys
+plain, led_in = (json.load(open(d + '/metrics.json')) for d in sys.argv[1:])
+assert (led_in['lead_in_s'], led_in['sim_time_s']) == (0.5, 2.5), (led_in['lead_in_s'], led_in['sim_time_s'])
+assert led_in['tracking']['samples'] == plain['tracking']['samples'] == 401, led_in['tracking']['samples']
+rows = [list(csv.DictReader(open(d + '/tracking.csv'))) for d in sys.argv[1:]]
+for a, b in zip(*rows):
+    assert a['t_s'] == b['t_s'] and a['x_ref_m'] == b['x_ref_m'] and a['y_ref_m'] == b['y_ref_m'], (a, b)
+PY
+# a gust's start_s is scenario time too: one at 0.3 s leaves the flight as it is in still air until then
+for gust in none '[{start_s: 0.3, rise_s: 0.1, hold_s: 0.5, amplitude_W_mps: [0, 5, 0]}]'; do
+  gusts=$([ "$gust" = none ] && echo '[]' || echo "$gust")
+  "$iapsim" run "$src/configs/regression/three_star_spiral.yaml" --duration 1 --set lead_in_s=0.5 \
+    --set "processes.physics.params.air={gusts: $gusts}" --out "$work/gust_$([ "$gust" = none ] && echo no || echo yes)" \
+    > "$work/gust.out" 2>&1 || fail "gust run: $(cat "$work/gust.out")"
+done
+/usr/bin/python3 - "$work/gust_no" "$work/gust_yes" <<'PY' || fail "the gust did not wait for the lead-in"
+import csv, sys
+still, gust = ([(float(r['t_s']), r['y_m']) for r in csv.DictReader(open(d + '/tracking.csv'))] for d in sys.argv[1:])
+assert all(a == b for a, b in zip(still, gust) if a[0] <= 0.3), 'the flights differ before the gust'
+assert any(a != b for a, b in zip(still, gust) if a[0] > 0.3), 'the gust changed nothing'
+PY
 # unrecorded (a timing run): no bag, so no evaluation, said so; a --video of it is refused before it flies
 "$iapsim" run "$src/configs/regression/three_star_spiral.yaml" --duration 1 --out "$work/spiral_unrecorded" \
   --set recording.enabled=false > "$work/unrecorded.out" 2>&1 || fail "unrecorded run: $(cat "$work/unrecorded.out")"
@@ -502,6 +528,7 @@ cat > "$work/mc/suite.yaml" <<EOF
 monte_carlo:
   set:
     duration_s: 3
+    lead_in_s: 0.5
     processes.physics.params.uncertainty: {mass: {normal: 0.05}}
 flights:
   spiral:

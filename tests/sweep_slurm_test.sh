@@ -19,7 +19,7 @@ eval "$cluster_env"
 cat > "$work/wind.yaml" << EOF
 name: wind
 scenario: $src/configs/regression/three_star_spiral.yaml
-set: {fidelity: realistic, duration_s: 1}
+set: {fidelity: realistic, duration_s: 1, lead_in_s: 0}
 grid:
   processes.physics.params.air.wind_W_mps: [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 0.0, 0.0]]
 seeds: [1, 2]

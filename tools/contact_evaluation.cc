@@ -111,6 +111,7 @@ nlohmann::json EvaluateContact(const std::string& run_dir, const bridge::BagRead
       iapsim_msgs::IapState& state = state_message;
       if (!bridge::Decode(m.bytes, &state, &error) || state.bodies.empty()) return false;
       const int64_t stamp = bridge::ToNanoseconds(state.header.stamp);
+      if (stamp < evaluation.start_ns) return true;  // the lead-in
       StateAt& at = states[stamp];
       at.p_WP_m = bridge::FromMsg(state.bodies[0].pose_W.position);
       at.q_WP = bridge::FromMsg(state.bodies[0].pose_W.orientation).normalized();
@@ -124,10 +125,12 @@ nlohmann::json EvaluateContact(const std::string& run_dir, const bridge::BagRead
     } else if (m.topic == setpoint_topic) {
       iapsim_msgs::Setpoint& setpoint = setpoint_message;
       if (!bridge::Decode(m.bytes, &setpoint, &error)) return false;
+      if (bridge::ToNanoseconds(setpoint.header.stamp) < evaluation.start_ns) return true;
       setpoints.emplace_back(bridge::ToNanoseconds(setpoint.header.stamp), setpoint.pose_W);
     } else {
       geometry_msgs::WrenchStamped& wrench = wrench_message;
       if (!bridge::Decode(m.bytes, &wrench, &error)) return false;
+      if (bridge::ToNanoseconds(wrench.header.stamp) < evaluation.start_ns) return true;
       (m.topic == filtered_topic ? filtered : targets)[bridge::ToNanoseconds(wrench.header.stamp)] =
           WrenchOf(wrench.wrench);
     }
@@ -328,7 +331,8 @@ void PrintContact(const nlohmann::json& contact) {
   axes(contact["steady_pose_error"], kPoseAxes, "  %s %7.3f");
   const int engagements = contact["engagements"].get<int>();
   std::printf("    (21) engaged at %.2f s", contact["engaged_at_s"].get<double>());
-  if (engagements > 1) std::printf("; engaged %d times in all (the contact lost and found again)", engagements);
+  if (engagements > 1)
+    std::printf("; engaged %d times in all (the contact lost and found again)", engagements);
   std::printf("\n");
 }
 

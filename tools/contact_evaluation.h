@@ -28,6 +28,8 @@ struct ContactEvaluation {
   Eigen::Vector3d hole_entry_W_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d hole_axis_W = -Eigen::Vector3d::UnitX();
   bool plots = true;
+  // the scenario's time 0 as a physics stamp (after its lead-in): what comes before is not evaluated
+  int64_t start_ns = 0;
 };
 
 /// The `contact: {vehicle, task: peg_in_hole | wall_push, steady_window_s, settle_band, contact_force_N,

@@ -92,6 +92,7 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const bridge::BagRea
     if (m.topic == state_topic) {
       iapsim_msgs::IapState& state = state_message;
       if (!bridge::Decode(m.bytes, &state, &error) || state.bodies.empty()) return false;
+      if (bridge::ToNanoseconds(state.header.stamp) < evaluation.start_ns) return true;  // the lead-in
       states[bridge::ToNanoseconds(state.header.stamp)] = PoseOf(state.bodies[0].pose_W);
       for (const auto& sub : state.sub_aircraft) {
         if (sub.saturated) {
@@ -102,6 +103,7 @@ nlohmann::json EvaluateTracking(const std::string& run_dir, const bridge::BagRea
     } else {
       iapsim_msgs::Setpoint& setpoint = setpoint_message;
       if (!bridge::Decode(m.bytes, &setpoint, &error)) return false;
+      if (bridge::ToNanoseconds(setpoint.header.stamp) < evaluation.start_ns) return true;
       five_dof = five_dof || setpoint.dof == iapsim_msgs::Setpoint::DOF_5;
       references.emplace_back(bridge::ToNanoseconds(setpoint.header.stamp), PoseOf(setpoint.pose_W));
     }

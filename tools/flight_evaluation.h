@@ -18,6 +18,8 @@ struct TrackingEvaluation {
   std::string vehicle = "iap";
   std::string controller = "control";  // the process whose report counts allocation saturation
   bool plots = true;
+  // the scenario's time 0 as a physics stamp (after its lead-in): what comes before is not evaluated
+  int64_t start_ns = 0;
 };
 
 /// The `tracking: {vehicle, controller, plots}` section of a scenario's `evaluation`, or nothing when it has

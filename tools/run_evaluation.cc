@@ -32,6 +32,8 @@ RunEvaluation ReadRunEvaluation(const bridge::Scenario& scenario) {
   bridge::YamlMap evaluation(scenario.evaluation, scenario.file, "evaluation");
   out.tracking = ReadTrackingEvaluation(evaluation);
   out.contact = ReadContactEvaluation(evaluation);
+  if (out.tracking) out.tracking->start_ns = scenario.lead_in_ns();
+  if (out.contact) out.contact->start_ns = scenario.lead_in_ns();
   out.odometry = ReadOdometryEvaluation(evaluation);
   if (evaluation.Has("videos")) {
     const YAML::Node videos = evaluation.Raw("videos");

@@ -233,7 +233,7 @@ std::string MarkdownField(std::string text) {
 }
 
 // numbers of metrics.json that repeat the run's settings
-const std::set<std::string> kSettings = {"/seed", "/duration_s", "/clock_step_s"};
+const std::set<std::string> kSettings = {"/seed", "/duration_s", "/lead_in_s", "/clock_step_s"};
 
 // The metric columns: those the sweep names, else every number the finished runs report outside the
 // per-process and loss counters and the settings, in order of first appearance.

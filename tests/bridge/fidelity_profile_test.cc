@@ -56,6 +56,29 @@ TEST(FidelityProfile, RealisticFillsWhatTheScenarioLeavesOutAndTheScenarioWins) 
   EXPECT_EQ(scenario.resolved["fidelity"].as<std::string>(), "realistic");
 }
 
+// The realistic profile's flights start from a settled hover: its lead-in comes before the scenario's time 0
+// and lengthens the run by as much; the scenario's own lead-in wins, and one that is not a whole number of
+// clock steps is refused by name.
+TEST(FidelityProfile, TheLeadInPrecedesTheScenariosTimeZero) {
+  const Scenario ideal = LoadScenario(kRegression + "three_star_spiral.yaml");
+  EXPECT_EQ(ideal.lead_in_ns(), 0);
+  EXPECT_EQ(ideal.last_step(), 65000u);
+  const Scenario realistic = LoadScenario(kRegression + "three_star_spiral.yaml", {"fidelity=realistic"});
+  EXPECT_EQ(realistic.lead_in_s, 20.0);
+  EXPECT_EQ(realistic.lead_in_ns(), 20'000'000'000);
+  EXPECT_EQ(realistic.last_step(), 85000u);
+  EXPECT_EQ(realistic.duration_s, 65.0);
+  EXPECT_EQ(realistic.resolved["lead_in_s"].as<double>(), 20.0);
+  const Scenario own =
+      LoadScenario(kRegression + "three_star_spiral.yaml", {"fidelity=realistic", "lead_in_s=0.5"});
+  EXPECT_EQ(own.lead_in_ns(), 500'000'000);
+  EXPECT_EQ(own.last_step(), 65500u);
+  const std::string off_grid = ErrorOf(kRegression + "three_star_spiral.yaml", {"lead_in_s=0.0005"});
+  EXPECT_NE(off_grid.find("lead_in_s: must be a whole number of clock steps"), std::string::npos) << off_grid;
+  const std::string negative = ErrorOf(kRegression + "three_star_spiral.yaml", {"lead_in_s=-1"});
+  EXPECT_NE(negative.find("lead_in_s"), std::string::npos) << negative;
+}
+
 // Orderings compose: the pilot log's controller waits for its replayer as written, and in the realistic
 // profile for the sensors' odometry too (the scenario's list used to win, and the odometry then came at k or
 // k + 1 by chance).

@@ -490,6 +490,27 @@ TEST_F(LauncherTest, AMessageStampedZeroIsRecordedAndReplayedAtItsStep) {
     return true;
   });
   EXPECT_EQ(count, 101u);
+
+  // a lead-in delays the log as it delays the scenario's time 0: the run is that much longer and the log
+  // plays in full after it
+  const LaunchResult led_in = Run(
+      scenario, "led_in",
+      {"lead_in_s=0.2", "processes.replayer.exec=iapsim_replayer",
+       "processes.replayer.params.bag=" + recorded.run_dir + "/run.bag",
+       "processes.replayer.params.topics=[/iap/uwb]", "processes.replayer.params.map=[/iap/uwb:=/old/uwb]"});
+  ASSERT_EQ(led_in.exit_code, 0) << led_in.message;
+  EXPECT_DOUBLE_EQ(Metrics(led_in)["sim_time_s"].get<double>(), 0.7);
+  count = 0;
+  BagReader(led_in.run_dir + "/run.bag").ForEach({"/old/uwb"}, [&](const BagMessage& m) {
+    iapsim_msgs::UwbRanges ranges;
+    EXPECT_TRUE(Decode(m.bytes, &ranges, nullptr));
+    EXPECT_EQ(static_cast<int64_t>(ranges.header.stamp.toNSec()),
+              200000000 + 1000000 + static_cast<int64_t>(count) * 5000000)
+        << "message " << count;
+    ++count;
+    return true;
+  });
+  EXPECT_EQ(count, 101u);
 }
 
 // A process that publishes a message over its topic's size limit stops the run with an error that names the

@@ -130,7 +130,7 @@ class ValidationOf : public Validation, public ::testing::WithParamInterface<std
 TEST_P(ValidationOf, NanInAnyNumberOfTheScenarioIsRefusedWithItsLineAndKey) {
   LaunchOptions options;
   options.scenario_path = std::string(IAPSIM_SOURCE_DIR) + "/configs/regression/three_star_spiral.yaml";
-  options.overrides = {"duration_s=0.01", "fidelity=" + GetParam()};
+  options.overrides = {"duration_s=0.01", "lead_in_s=0.002", "fidelity=" + GetParam()};
   options.out_dir = (dir_ / "run").string();
   options.bin_dir = ExecutableDir();
   const LaunchResult run = Launch(options);

@@ -137,6 +137,30 @@ TEST_F(TrackingEvaluationTest, MatchesHandComputedErrors) {
   EXPECT_EQ(nlohmann::json::parse(metrics)["tracking"]["samples"], 4);
 }
 
+// A lead-in (the realistic profile's settling hover) is flown and recorded but not evaluated: the samples
+// before the scenario's time 0 (a 1 m error and a mixer cut) count nowhere, and time starts at 0 there.
+TEST_F(RecordingTest, TrackingStartsAtTheScenariosTimeZero) {
+  for (int k = 0; k < 6; ++k) {
+    const int64_t stamp = 5000000 * k;
+    const bool lead_in = stamp < 15000000;
+    State(stamp, Eigen::Vector3d(lead_in ? 1.0 : 0.1, 0, 0), Eigen::Vector3d::Zero(), {lead_in, false});
+    Setpoint(stamp, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  }
+  TrackingEvaluation evaluation;
+  evaluation.plots = false;
+  evaluation.start_ns = 15000000;
+  const nlohmann::json tracking = EvaluateTracking(dir_.string(), Recording(), evaluation);
+  EXPECT_EQ(tracking["samples"], 3);
+  EXPECT_NEAR(tracking["position_max_m"]["x"].get<double>(), 0.1, 1e-12);
+  EXPECT_EQ(tracking["mixer_saturated_steps"], 0);
+  EXPECT_NEAR(tracking["duration_s"].get<double>(), 0.010, 1e-12);
+  std::ifstream csv(dir_ / "tracking.csv");
+  std::string header, first;
+  std::getline(csv, header);
+  std::getline(csv, first);
+  EXPECT_EQ(first.substr(0, 6), "0.000,") << first;
+}
+
 TEST_F(TrackingEvaluationTest, NoMatchingStampIsAnError) {
   State(1000000, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
   Setpoint(2000000, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
@@ -147,26 +171,37 @@ TEST_F(TrackingEvaluationTest, NoMatchingStampIsAnError) {
 // wrench has fx at 1.0 N until 2.5 s and 1.5 N after, fy at 2.0 N until 5 s and 3.8 N after, tz at
 // −4.2 N·m; for 10 samples of the 10 s steady window fy drops to 0, which leaves the force (1.5 N) under
 // the 1.6 N that counts as contact here; the raw wrench first touches at 1.9 s and spikes to 50 N at 2.5 s.
-TEST_F(RecordingTest, ContactMetricsOfAKnownWallPush) {
-  const control::Vector6d command = (control::Vector6d() << 1.5, 4.0, 0, 0, 0, -4.0).finished();
-  for (int k = 0; k <= 200; ++k) {
-    const int64_t stamp = 100000000LL * k + 1000000;  // the first setpoint at 1 ms, as in a run
-    const double t = 0.1 * k;
-    control::Vector6d raw = control::Vector6d::Zero(), filtered = control::Vector6d::Zero();
-    if (k >= 19) raw[0] = 1.0;
-    if (k == 25) raw[1] = 50.0;
-    const bool broken = k >= 150 && k < 160;
-    if (k >= 20) filtered << (k < 25 ? 1.0 : 1.5), broken ? 0.0 : t < 5.0 - 1e-9 ? 2.0 : 3.8, 0, 0, 0, -4.2;
-    State(stamp, Eigen::Vector3d(1.01, -0.02, -2.0), Eigen::Vector3d::Zero(), {false}, raw);
-    Setpoint(stamp, Eigen::Vector3d(1.0, 0.0, -2.0), Eigen::Vector3d::Zero());
-    Wrench("/iap/wrench/filtered", stamp, filtered);
-    const bool released = k >= 152 && k < 160;  // (21) let go during the break and engaged again
-    if (k >= 20 && !released) Wrench("/iap/wrench/target", stamp, command);
+class WallPushRecording : public RecordingTest {
+ protected:
+  void Record() {
+    const control::Vector6d command = (control::Vector6d() << 1.5, 4.0, 0, 0, 0, -4.0).finished();
+    for (int k = 0; k <= 200; ++k) {
+      const int64_t stamp = 100000000LL * k + 1000000;  // the first setpoint at 1 ms, as in a run
+      const double t = 0.1 * k;
+      control::Vector6d raw = control::Vector6d::Zero(), filtered = control::Vector6d::Zero();
+      if (k >= 19) raw[0] = 1.0;
+      if (k == 25) raw[1] = 50.0;
+      const bool broken = k >= 150 && k < 160;
+      if (k >= 20) filtered << (k < 25 ? 1.0 : 1.5), broken ? 0.0 : t < 5.0 - 1e-9 ? 2.0 : 3.8, 0, 0, 0, -4.2;
+      State(stamp, Eigen::Vector3d(1.01, -0.02, -2.0), Eigen::Vector3d::Zero(), {false}, raw);
+      Setpoint(stamp, Eigen::Vector3d(1.0, 0.0, -2.0), Eigen::Vector3d::Zero());
+      Wrench("/iap/wrench/filtered", stamp, filtered);
+      const bool released = k >= 152 && k < 160;  // (21) let go during the break and engaged again
+      if (k >= 20 && !released) Wrench("/iap/wrench/target", stamp, command);
+    }
   }
-  ContactEvaluation evaluation;
-  evaluation.plots = false;
-  evaluation.contact_force_N = 1.6;
-  const nlohmann::json contact = EvaluateContact(dir_.string(), Recording(), evaluation);
+  nlohmann::json Evaluate(int64_t start_ns) {
+    Record();
+    ContactEvaluation evaluation;
+    evaluation.plots = false;
+    evaluation.contact_force_N = 1.6;
+    evaluation.start_ns = start_ns;
+    return EvaluateContact(dir_.string(), Recording(), evaluation);
+  }
+};
+
+TEST_F(WallPushRecording, ContactMetricsOfAKnownWallPush) {
+  const nlohmann::json contact = Evaluate(0);
 
   EXPECT_NEAR(contact["first_contact_s"].get<double>(), 1.9, 1e-9);
   EXPECT_NEAR(contact["max_raw_force_N"].get<double>(), std::hypot(1.0, 50.0), 1e-9);
@@ -188,6 +223,16 @@ TEST_F(RecordingTest, ContactMetricsOfAKnownWallPush) {
   EXPECT_NEAR(contact["settling_time_s"]["tz"].get<double>(), 0.0, 1e-9);
   EXPECT_NEAR(contact["steady_pose_error"]["x"].get<double>(), 0.01, 1e-9);
   EXPECT_NEAR(contact["steady_pose_error"]["y"].get<double>(), -0.02, 1e-9);
+}
+
+// After a lead-in the times count from the scenario's time 0, and what came before it is not evaluated: the
+// touch at 1.9 s and the engagement at 2.0 s lie before a time 0 at 2.201 s, the spike 0.3 s after it.
+TEST_F(WallPushRecording, ContactStartsAtTheScenariosTimeZero) {
+  const nlohmann::json contact = Evaluate(2201000000);
+  EXPECT_NEAR(contact["first_contact_s"].get<double>(), 0.0, 1e-9);
+  EXPECT_NEAR(contact["max_raw_force_at_s"].get<double>(), 0.3, 1e-9);
+  EXPECT_NEAR(contact["engaged_at_s"].get<double>(), 0.0, 1e-9);
+  EXPECT_NEAR(contact["contact_fraction"].get<double>(), 91.0 / 101.0, 1e-12);  // the same last 10 s
 }
 
 }  // namespace
