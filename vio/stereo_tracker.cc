@@ -73,6 +73,9 @@ struct StereoTracker::State {
 
   // Lucas-Kanade from one pyramid to the other and back: a point is kept when both directions converge,
   // it lands inside the image and the backward track returns within forward_backward_px of where it began.
+  // The backward track starts where the point began, which is its answer if the forward track is right,
+  // so it needs no coarse levels: it runs on the full image and one level above it, as VINS-Fusion's
+  // reverse check does (feature_tracker.cpp, FLOW_BACK), at half the cost of the full pyramid.
   std::vector<bool> Flow(const std::vector<cv::Mat>& from, const std::vector<cv::Mat>& to,
                          const std::vector<cv::Point2f>& from_points,
                          std::vector<cv::Point2f>* to_points) const {
@@ -85,8 +88,8 @@ struct StereoTracker::State {
     cv::calcOpticalFlowPyrLK(from, to, from_points, *to_points, forward, error, window,
                              options.pyramid_levels, criteria);
     std::vector<cv::Point2f> back = from_points;
-    cv::calcOpticalFlowPyrLK(to, from, *to_points, back, backward, error, window, options.pyramid_levels,
-                             criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+    cv::calcOpticalFlowPyrLK(to, from, *to_points, back, backward, error, window,
+                             std::min(options.pyramid_levels, 1), criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
     for (std::size_t i = 0; i < from_points.size(); ++i) {
       ok[i] = forward[i] && backward[i] && Inside((*to_points)[i]) &&
               cv::norm(back[i] - from_points[i]) <= options.forward_backward_px;
