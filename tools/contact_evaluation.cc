@@ -45,7 +45,8 @@ struct Sample {
   Vector6d pose_error = Vector6d::Zero();      // state − setpoint: m in W, then ZYX Euler angles (rad)
   double pitch_command_rad = 0.0;
   double pitch_rad = 0.0;
-  double depth_m = kNaN;  // peg-in-hole: the tip's insertion depth
+  double depth_m = kNaN;   // peg-in-hole: the tip's insertion depth
+  double radial_m = kNaN;  // and its distance from the hole's axis
 };
 
 nlohmann::json AxesJson(const std::array<const char*, 6>& names, const Vector6d& values) {
@@ -71,11 +72,14 @@ std::optional<ContactEvaluation> ReadContactEvaluation(bridge::YamlMap& evaluati
   contact.OptionalInRange("contact_force_N", &out.contact_force_N, 0.0, 1e4);
   if (out.task == ContactEvaluation::Task::kPegInHole) {
     model::OptionalVector3(contact, "tip_P_m", &out.tip_P_m);
-    if (!contact.Has("hole_entry_W_m")) contact.Fail("hole_entry_W_m", "is required for task peg_in_hole");
+    for (const char* key : {"hole_entry_W_m", "hole_radius_m"}) {
+      if (!contact.Has(key)) contact.Fail(key, "is required for task peg_in_hole");
+    }
     model::OptionalVector3(contact, "hole_entry_W_m", &out.hole_entry_W_m);
     model::OptionalVector3(contact, "hole_axis_W", &out.hole_axis_W);
     if (out.hole_axis_W.norm() < 1e-9) contact.Fail("hole_axis_W", "must not be zero");
     out.hole_axis_W.normalize();
+    contact.OptionalInRange("hole_radius_m", &out.hole_radius_m, 1e-6, 100.0);
   }
   contact.Optional("plots", &out.plots);
   contact.Finish();
@@ -166,8 +170,10 @@ nlohmann::json EvaluateContact(const std::string& run_dir, const bridge::BagRead
     s.pitch_command_rad = rpy_ref.y();
     s.pitch_rad = rpy.y();
     if (peg) {
-      const Eigen::Vector3d tip_W_m = state->second.p_WP_m + state->second.q_WP * evaluation.tip_P_m;
-      s.depth_m = (tip_W_m - evaluation.hole_entry_W_m).dot(evaluation.hole_axis_W);
+      const Eigen::Vector3d from_entry_W_m =
+          state->second.p_WP_m + state->second.q_WP * evaluation.tip_P_m - evaluation.hole_entry_W_m;
+      s.depth_m = from_entry_W_m.dot(evaluation.hole_axis_W);
+      s.radial_m = (from_entry_W_m - s.depth_m * evaluation.hole_axis_W).norm();
     }
     samples.push_back(s);
   }
@@ -182,7 +188,7 @@ nlohmann::json EvaluateContact(const std::string& run_dir, const bridge::BagRead
       for (const char* axis : kWrenchAxes) csv << "," << kind << "_" << axis;
     }
     for (const char* axis : kPoseAxes) csv << ",error_" << axis;
-    csv << ",pitch_command_deg,pitch_deg,depth_m\n";
+    csv << ",pitch_command_deg,pitch_deg,depth_m,radial_m\n";
     char number[32];
     for (const Sample& s : samples) {
       csv << s.t_s;
@@ -198,7 +204,7 @@ nlohmann::json EvaluateContact(const std::string& run_dir, const bridge::BagRead
       }
       std::snprintf(number, sizeof number, ",%.4f,%.4f", s.pitch_command_rad * kRadToDeg,
                     s.pitch_rad * kRadToDeg);
-      csv << number << "," << s.depth_m << "\n";
+      csv << number << "," << s.depth_m << "," << s.radial_m << "\n";
     }
   }
 
@@ -247,7 +253,10 @@ nlohmann::json EvaluateContact(const std::string& run_dir, const bridge::BagRead
         std::sqrt(std::max(0.0, steady_pitch_command_sq / n - mean * mean)) * kRadToDeg;
     contact["insertion_depth_final_m"] = samples.back().depth_m;
     contact["insertion_depth_max_m"] = depth_max;
-    contact["success"] = samples.back().depth_m > 0.0 && touching_in_window == in_window;
+    contact["tip_radial_offset_final_m"] = samples.back().radial_m;
+    contact["hole_radius_m"] = evaluation.hole_radius_m;
+    const bool in_hole = samples.back().depth_m > 0.0 && samples.back().radial_m <= evaluation.hole_radius_m;
+    contact["success"] = in_hole && touching_in_window == in_window;
   } else {
     const Vector6d command = targets.rbegin()->second;
     const double engaged_at_s = static_cast<double>(targets.begin()->first - t0_ns) * 1e-9;
@@ -315,10 +324,11 @@ void PrintContact(const nlohmann::json& contact) {
   if (contact["task"] == "peg_in_hole") {
     std::printf(
         "    pitch command settles at %.2f deg (std %.2f; the seed reports about 12 deg); insertion depth "
-        "%.3f m (max %.3f m); %s\n",
+        "%.3f m (max %.3f m), %.3f m off the hole's axis (radius %.3f m); %s\n",
         contact["pitch_command_settled_deg"].get<double>(), contact["pitch_command_std_deg"].get<double>(),
         contact["insertion_depth_final_m"].get<double>(), contact["insertion_depth_max_m"].get<double>(),
-        contact["success"].get<bool>() ? "inserted and in contact" : "NOT inserted and in contact");
+        contact["tip_radial_offset_final_m"].get<double>(), contact["hole_radius_m"].get<double>(),
+        contact["success"].get<bool>() ? "in the hole and in contact" : "NOT in the hole and in contact");
     return;
   }
   std::printf("    command (P)           ");

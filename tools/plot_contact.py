@@ -5,7 +5,8 @@ Figs. 15 and 16.
 usage: plot_contact.py CONTACT_CSV OUT_DIR peg_in_hole|wall_push [TITLE]
   -> OUT_DIR/contact_wrench.png: contact force and torque per axis, raw (every control step's true wrench,
      spikes included) and low-passed (§VI-E), with the wrench command where (21) engaged;
-  -> OUT_DIR/peg_in_hole.png: pitch command and pitch, insertion depth (Fig. 15), or
+  -> OUT_DIR/peg_in_hole.png: pitch command and pitch, the tip's insertion depth and offset from the hole's
+     axis (Fig. 15), or
      OUT_DIR/wall_push.png: wrench error and pose error per axis (Fig. 16).
 """
 import os
@@ -56,9 +57,11 @@ def peg_figure(data, title, out_path):
     top.set_ylabel("pitch (deg)")
     top.legend(loc="best", fontsize=8)
     top.grid(alpha=0.3)
-    bottom.plot(t, data["depth_m"] * 1000.0, color="C2")
+    bottom.plot(t, data["depth_m"] * 1000.0, color="C2", label="insertion depth (along the hole's axis)")
+    bottom.plot(t, data["radial_m"] * 1000.0, color="C3", label="tip's offset from the hole's axis")
     bottom.axhline(0.0, color="0.6", lw=0.8)
-    bottom.set_ylabel("insertion depth (mm)")
+    bottom.set_ylabel("tip (mm)")
+    bottom.legend(loc="best", fontsize=8)
     bottom.set_xlabel("t (s)")
     bottom.grid(alpha=0.3)
     fig.suptitle(f"{title}: peg-in-hole under admittance control")

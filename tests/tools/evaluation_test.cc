@@ -1,19 +1,23 @@
 // The evaluation's metrics computed from synthetic recordings with known errors (issue 24). Tracking
 // (tools/flight_evaluation.h) against hand-computed RMSE and max |e|: pairing by stamp, per-axis statistics,
 // the yaw error wrapped through ±180°, a setpoint without a state reported and not compared, mixer
-// saturation counted per step. Contact (tools/contact_evaluation.h) on a known wall-push wrench trace.
+// saturation counted per step. Contact (tools/contact_evaluation.h) on a known wall-push wrench trace and a
+// known peg insertion (the tip's depth and offset from the hole's axis, the settled pitch command).
 #include <geometry_msgs/WrenchStamped.h>
 #include <gtest/gtest.h>
 #include <iapsim_msgs/IapState.h>
 #include <iapsim_msgs/Setpoint.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
 #include "bridge/bag.h"
+#include "bridge/config.h"
 #include "bridge/eigen_msgs.h"
 #include "bridge/message.h"
 #include "control/allocation.h"
@@ -233,6 +237,81 @@ TEST_F(WallPushRecording, ContactStartsAtTheScenariosTimeZero) {
   EXPECT_NEAR(contact["max_raw_force_at_s"].get<double>(), 0.3, 1e-9);
   EXPECT_NEAR(contact["engaged_at_s"].get<double>(), 0.0, 1e-9);
   EXPECT_NEAR(contact["contact_fraction"].get<double>(), 91.0 / 101.0, 1e-12);  // the same last 10 s
+}
+
+// A peg-in-hole at 10 Hz for 20 s, level throughout, the hole's entry at (−1.375, 0, −2) m with its axis
+// along −x and a 25 mm radius, the tip 1 m ahead of the platform along −x: the platform flies the tip 6 cm
+// deep by 6 s, it is pulled back to 4 cm at 10 s; the pitch command ramps to 12° from 10 to 14 s and then
+// alternates 11.8° / 12.2° (even / odd samples); the filtered force is 2 N from the first touch at 3 s. The
+// tip stays `offset_m` beside the axis (along y).
+class PegInHoleRecording : public RecordingTest {
+ protected:
+  nlohmann::json Evaluate(double offset_m) {
+    for (int k = 0; k <= 200; ++k) {
+      const int64_t stamp = 100000000LL * k + 1000000;
+      const double t = 0.1 * k;
+      const double depth_m = k <= 100 ? std::min(0.01 * t, 0.06) : 0.04;
+      double pitch_command_deg = std::clamp(3.0 * (t - 10.0), 0.0, 12.0);
+      if (k >= 140) pitch_command_deg = k % 2 == 0 ? 11.8 : 12.2;
+      control::Vector6d filtered = control::Vector6d::Zero();
+      if (k >= 30) filtered[0] = 2.0;
+      State(stamp, Eigen::Vector3d(-0.375 - depth_m, offset_m, -2.0), Eigen::Vector3d::Zero(), {false});
+      Setpoint(stamp, Eigen::Vector3d(-0.43, 0.0, -2.0), Eigen::Vector3d(0.0, pitch_command_deg * kDeg, 0.0));
+      Wrench("/iap/wrench/filtered", stamp, filtered);
+    }
+    ContactEvaluation evaluation;
+    evaluation.task = ContactEvaluation::Task::kPegInHole;
+    evaluation.plots = false;
+    evaluation.steady_window_s = 5.0;
+    evaluation.hole_entry_W_m = Eigen::Vector3d(-1.375, 0.0, -2.0);
+    evaluation.hole_axis_W = -Eigen::Vector3d::UnitX();
+    evaluation.hole_radius_m = 0.025;
+    return EvaluateContact(dir_.string(), Recording(), evaluation);
+  }
+};
+
+TEST_F(PegInHoleRecording, ContactMetricsOfAKnownInsertion) {
+  const nlohmann::json contact = Evaluate(0.01);
+  // the window [15, 20] s holds samples 150..200: 26 even (11.8°) and 25 odd (12.2°)
+  const double mean = (26 * 11.8 + 25 * 12.2) / 51.0;
+  const double mean_square = (26 * 11.8 * 11.8 + 25 * 12.2 * 12.2) / 51.0;
+  EXPECT_NEAR(contact["pitch_command_settled_deg"].get<double>(), mean, 1e-9);
+  EXPECT_NEAR(contact["pitch_command_std_deg"].get<double>(), std::sqrt(mean_square - mean * mean), 1e-6);
+  EXPECT_NEAR(contact["insertion_depth_final_m"].get<double>(), 0.04, 1e-9);
+  EXPECT_NEAR(contact["insertion_depth_max_m"].get<double>(), 0.06, 1e-9);
+  EXPECT_NEAR(contact["tip_radial_offset_final_m"].get<double>(), 0.01, 1e-9);
+  EXPECT_TRUE(contact["first_contact_s"].is_null());  // no raw wrench recorded
+  EXPECT_NEAR(contact["contact_fraction"].get<double>(), 1.0, 1e-12);
+  EXPECT_TRUE(contact["success"].get<bool>());
+}
+
+// A pole that passed beside the funnel and leans on its outside is as deep along the axis and touching, but
+// not in the hole.
+TEST_F(PegInHoleRecording, ATipBesideTheHoleIsNotInIt) {
+  const nlohmann::json contact = Evaluate(0.06);
+  EXPECT_NEAR(contact["insertion_depth_final_m"].get<double>(), 0.04, 1e-9);
+  EXPECT_NEAR(contact["tip_radial_offset_final_m"].get<double>(), 0.06, 1e-9);
+  EXPECT_NEAR(contact["contact_fraction"].get<double>(), 1.0, 1e-12);
+  EXPECT_FALSE(contact["success"].get<bool>());
+}
+
+// Without the hole's radius a peg-in-hole cannot tell a tip in the hole from one beside it: the scenario is
+// refused, naming the file, the line and the key.
+TEST(ContactEvaluationConfig, APegInHoleNeedsTheHolesRadius) {
+  const YAML::Node root = YAML::Load(
+      "contact:\n"
+      "  task: peg_in_hole\n"
+      "  hole_entry_W_m: [-1.375, 0.0, -2.0]\n");
+  bridge::YamlMap evaluation(root, "peg.yaml", "evaluation");
+  try {
+    ReadContactEvaluation(evaluation);
+    FAIL() << "a peg-in-hole without hole_radius_m was accepted";
+  } catch (const bridge::ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("peg.yaml"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("hole_radius_m: is required for task peg_in_hole"),
+              std::string::npos)
+        << error.what();
+  }
 }
 
 }  // namespace
