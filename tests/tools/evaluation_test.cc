@@ -307,7 +307,7 @@ TEST(ContactEvaluationConfig, APegInHoleNeedsTheHolesRadius) {
     ReadContactEvaluation(evaluation);
     FAIL() << "a peg-in-hole without hole_radius_m was accepted";
   } catch (const bridge::ConfigError& error) {
-    EXPECT_NE(std::string(error.what()).find("peg.yaml"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("peg.yaml:2:"), std::string::npos) << error.what();
     EXPECT_NE(std::string(error.what()).find("hole_radius_m: is required for task peg_in_hole"),
               std::string::npos)
         << error.what();
