@@ -9,12 +9,14 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <deque>
 #include <exception>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -189,53 +191,149 @@ Truth ReadTruth(const bridge::BagReader& bag, const DatasetInput& in) {
   return truth;
 }
 
+using Inputs = std::vector<std::function<void(vio::Estimator&)>>;
+
+struct PendingPair {
+  std::vector<uint8_t> left, right;
+  bool Complete() const { return !left.empty() && !right.empty(); }
+};
+
+// A hand-over between two threads of the pass over the bag: Push waits while `capacity` items wait (0:
+// never); after Close, Push refuses (returns false) and Pop returns what is left, then nothing.
+template <typename T>
+class HandOver {
+ public:
+  explicit HandOver(std::size_t capacity = 0) : capacity_(capacity) {}
+  bool Push(T item) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    room_.wait(lock, [&] { return closed_ || capacity_ == 0 || items_.size() < capacity_; });
+    if (closed_) return false;
+    items_.push_back(std::move(item));
+    ready_.notify_one();
+    return true;
+  }
+  std::optional<T> Pop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    ready_.wait(lock, [&] { return closed_ || !items_.empty(); });
+    if (items_.empty()) return std::nullopt;
+    T item = std::move(items_.front());
+    items_.pop_front();
+    room_.notify_one();
+    return item;
+  }
+  void Close() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    closed_ = true;
+    room_.notify_all();
+    ready_.notify_all();
+  }
+
+ private:
+  const std::size_t capacity_;
+  std::mutex mutex_;
+  std::condition_variable room_, ready_;
+  std::deque<T> items_;
+  bool closed_ = false;
+};
+
+// How many stamps a front end may run ahead of the estimators, and the reader ahead of them.
+constexpr std::size_t kStampsAhead = 4;
+
+// One sub-aircraft's front end on a thread of its own: it decodes and tracks the pairs it is given, in order.
+// A front end needs nothing from the estimate, so it runs ahead of the lockstep estimators and fills the core
+// that the slowest estimator of a stamp leaves the others waiting on (VIRPO on (a)-2 used 1.73 of the two
+// cores with decoding and tracking inside each estimator's step).
+class FrontEnd {
+ public:
+  FrontEnd(const vio::SubAircraftSetup& sub, const vio::TrackerOptions& options, SubAircraftResult* timing)
+      : sub_(sub), tracker_(sub.rig, options), timing_(timing), pairs_(kStampsAhead) {
+    thread_ = std::thread([this] { Loop(); });
+  }
+  ~FrontEnd() {
+    pairs_.Close();
+    thread_.join();
+  }
+  FrontEnd(const FrontEnd&) = delete;
+  FrontEnd& operator=(const FrontEnd&) = delete;
+
+  /// Queues the pair of `t_ns`; false once closed.
+  bool Give(int64_t t_ns, PendingPair pair) { return pairs_.Push({t_ns, std::move(pair)}); }
+  /// No more pairs: the front end tracks what it has and stops.
+  void Close() { pairs_.Close(); }
+  /// The tracked frame of `t_ns`, the next in order; rethrows the front end's failure.
+  vio::StereoFrame Take(int64_t t_ns) {
+    std::optional<Tracked> tracked = frames_.Pop();
+    if (!tracked)
+      throw std::runtime_error(sub_.body + ": the front end stopped before the frame it was given");
+    if (tracked->failure) std::rethrow_exception(tracked->failure);
+    if (tracked->t_ns != t_ns) throw std::logic_error(sub_.body + ": the front end's frames are out of step");
+    return std::move(tracked->frame);
+  }
+
+ private:
+  struct Tracked {
+    int64_t t_ns = 0;
+    vio::StereoFrame frame;
+    std::exception_ptr failure;
+  };
+
+  void Loop() {
+    while (std::optional<std::pair<int64_t, PendingPair>> job = pairs_.Pop()) {
+      Tracked tracked;
+      tracked.t_ns = job->first;
+      try {
+        Clock::time_point stage = Clock::now();
+        const render::Image left = render::DecodeImage(job->second.left, sub_.left_topic);
+        const render::Image right = render::DecodeImage(job->second.right, sub_.right_topic);
+        timing_->decode_ms += Milliseconds(stage);
+        stage = Clock::now();
+        tracked.frame = tracker_.Track(static_cast<double>(job->first) * 1e-9, left, right);
+        timing_->front_end_ms += Milliseconds(stage);
+      } catch (...) {
+        tracked.failure = std::current_exception();
+      }
+      const bool failed = tracked.failure != nullptr;
+      frames_.Push(std::move(tracked));
+      if (failed) break;
+    }
+    frames_.Close();
+  }
+
+  const vio::SubAircraftSetup& sub_;
+  vio::StereoTracker tracker_;
+  SubAircraftResult* timing_;  ///< decode_ms and front_end_ms, written by this thread only
+  HandOver<std::pair<int64_t, PendingPair>> pairs_;
+  HandOver<Tracked> frames_;  // unbounded: the pairs' bound and the reader's hold it to a few stamps
+  std::thread thread_;
+};
+
 // One sub-aircraft's estimation during the pass over the bag.
 struct SubAircraftRun {
-  struct PendingPair {
-    std::vector<uint8_t> left, right;
-    bool Complete() const { return !left.empty() && !right.empty(); }
-  };
   const vio::SubAircraftSetup* input = nullptr;
   const std::map<int64_t, TruthSample>* truth = nullptr;
-  vio::StereoTracker tracker;
   vio::Estimator estimator;
   std::vector<std::size_t> peer_index;   ///< by sub-aircraft: its index among this one's peers (virpo)
-  std::map<int64_t, PendingPair> pairs;  ///< by stamp, until the step of that stamp
-  /// IMU samples, attitudes and ranges in bag order, given to the estimator at its next frame
-  std::vector<std::function<void(vio::Estimator&)>> inputs;
-  // What the worker steps with, moved out of `pairs` and `inputs` before it starts: the reader goes on
-  // filling those while the worker runs.
-  int64_t step_ns = 0;
-  PendingPair step_pair;
-  std::vector<std::function<void(vio::Estimator&)>> step_inputs;
+  std::map<int64_t, PendingPair> pairs;  ///< by stamp, until the step of that stamp (the reader's)
+  Inputs inputs;  ///< IMU samples, attitudes and ranges in bag order, for the estimator's next frame (the
+                  ///< reader's)
   double last_imu_t_s = -std::numeric_limits<double>::infinity();
   std::optional<nav_msgs::Odometry> shared;  ///< this step's estimate, as the vio process publishes it
   SubAircraftResult result;
 
-  SubAircraftRun(const vio::SubAircraftSetup& sub, const vio::TrackerOptions& tracker_options,
-                 const vio::EstimatorOptions& options)
-      : input(&sub), tracker(sub.rig, tracker_options), estimator(sub.rig, options) {}
+  SubAircraftRun(const vio::SubAircraftSetup& sub, const vio::EstimatorOptions& options)
+      : input(&sub), estimator(sub.rig, options) {}
 
-  // Decodes and tracks step_pair, gives the estimator step_inputs and the frame.
-  void Step(const std::string& bag_path) {
-    const int64_t t_ns = step_ns;
-    const PendingPair& pair = step_pair;
+  // Gives the estimator the inputs that came before the frame, then the frame.
+  void Estimate(int64_t t_ns, const vio::StereoFrame& frame, const Inputs& frame_inputs,
+                const std::string& bag_path) {
     const vio::SubAircraftSetup& sub = *input;
-    const double t_s = static_cast<double>(t_ns) * 1e-9;
-    Clock::time_point stage = Clock::now();
-    const render::Image left = render::DecodeImage(pair.left, sub.left_topic);
-    const render::Image right = render::DecodeImage(pair.right, sub.right_topic);
-    result.decode_ms += Milliseconds(stage);
-    stage = Clock::now();
-    const vio::StereoFrame frame = tracker.Track(t_s, left, right);
-    result.front_end_ms += Milliseconds(stage);
-    for (const auto& give : step_inputs) give(estimator);
-    step_inputs.clear();
+    for (const auto& give : frame_inputs) give(estimator);
     const auto truth_now = truth->find(t_ns);
     if (result.frames == 0) {
       if (truth_now == truth->end()) {
         throw DatasetError(bag_path + ": " + sub.truth_topic +
-                           " has no ground truth at the first image's stamp " + std::to_string(t_s) + " s");
+                           " has no ground truth at the first image's stamp " +
+                           std::to_string(static_cast<double>(t_ns) * 1e-9) + " s");
       }
       nav_msgs::Odometry first;  // as the vio process gets it
       first.pose.pose = truth_now->second.pose;
@@ -290,7 +388,7 @@ void Dispatch(const bridge::BagMessage& m, const std::string& bag_path, SubAircr
   } else {
     sensor_msgs::CompressedImage image;
     decode(&image);
-    SubAircraftRun::PendingPair& pair = run->pairs[bridge::ToNanoseconds(image.header.stamp)];
+    PendingPair& pair = run->pairs[bridge::ToNanoseconds(image.header.stamp)];
     (m.topic == sub.left_topic ? pair.left : pair.right) = image.data;
   }
 }
@@ -321,9 +419,8 @@ std::optional<int64_t> NextStep(const std::vector<SubAircraftRun>& runs, bool en
   return t_ns;
 }
 
-// One thread per sub-aircraft for the whole run, stepping it when told, so that the bag can be read on while
-// they step (with a thread started per stamp and joined before reading on, VIO on (a)-2 ran at 0.75x real
-// time; with these and the reading overlapped, 0.82x).
+// One thread per sub-aircraft's estimator for the whole run, stepping it when told (with a thread started per
+// stamp, VIO on (a)-2 ran at 0.75x real time; with these, 0.82x).
 class StepWorkers {
  public:
   explicit StepWorkers(std::size_t count) : due_(count, false), failures_(count) {
@@ -386,9 +483,11 @@ class StepWorkers {
 };
 
 // Every sub-aircraft's estimation in one pass over the bag, in lockstep by image stamp: at each stamp the
-// sub-aircraft step in parallel (one thread each), each seeing the others' joints as they shared them after
-// the previous stamps (as processes exchanging odometry over the bus would, seed Fig. 4), so the result does
-// not depend on the threads' timing.
+// sub-aircraft's estimators step in parallel (one thread each), each seeing the others' joints as they shared
+// them after the previous stamps (as processes exchanging odometry over the bus would, seed Fig. 4), so the
+// result does not depend on the threads' timing. Three stages run at once: this thread reads the bag and
+// hands each stamp's pairs to the front ends and the stamp to the stepping thread, the front ends track
+// ahead, and the stepping thread steps the estimators a stamp at a time.
 std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const DatasetInput& in,
                                            const std::string& mode, const vio::VioConfig& config,
                                            const Truth& truth) {
@@ -398,7 +497,7 @@ std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const D
   std::vector<std::string> topics;
   for (std::size_t i = 0; i < in.setup.subs.size(); ++i) {
     const vio::SubAircraftSetup& sub = in.setup.subs[i];
-    runs.emplace_back(sub, config.tracker, vio::EstimatorOptionsFor(in.setup, i, mode, config));
+    runs.emplace_back(sub, vio::EstimatorOptionsFor(in.setup, i, mode, config));
     runs.back().truth = &truth.at(sub.truth_topic);
     for (std::size_t o = 0; o < in.setup.subs.size(); ++o)
       runs.back().peer_index.push_back(o < i ? o : o - 1);
@@ -409,51 +508,91 @@ std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const D
       topics.push_back(topic);
     }
   }
-  // The bag is read on while the workers step: a stamp's step starts once the previous one is done and its
-  // joints shared.
-  const std::function<void(std::size_t)> job = [&](std::size_t i) { runs[i].Step(in.bag_path); };
-  StepWorkers workers(runs.size());  // after `job`: joined before it goes, also when the reader throws
-  std::vector<std::size_t> stepping;
-  int64_t stepping_ns = 0;
-  const auto finish_step = [&] {
-    workers.Wait();
-    if (mode == "virpo") {
-      for (std::size_t i : stepping) {
-        const vio::PeerJoint joint = vio::PeerJointOf(*runs[i].shared);
-        for (std::size_t o : stepping) {
-          if (o != i)
-            runs[o].estimator.AddPeerJoint(runs[o].peer_index[i], static_cast<double>(stepping_ns) * 1e-9,
-                                           joint);
+  struct Stamp {
+    int64_t t_ns = 0;
+    std::vector<std::size_t> stepping;
+    std::vector<Inputs> inputs;  ///< by sub-aircraft, of those stepping
+  };
+  std::vector<std::unique_ptr<FrontEnd>> front_ends;
+  for (SubAircraftRun& run : runs)
+    front_ends.push_back(std::make_unique<FrontEnd>(*run.input, config.tracker, &run.result));
+  HandOver<Stamp> stamps(kStampsAhead);
+  const Stamp* stepping = nullptr;
+  const std::function<void(std::size_t)> job = [&](std::size_t i) {
+    runs[i].Estimate(stepping->t_ns, front_ends[i]->Take(stepping->t_ns), stepping->inputs[i], in.bag_path);
+  };
+  StepWorkers workers(runs.size());  // after `job` and the front ends: joined before they go
+  std::exception_ptr failure;        // the stepping thread's
+  const auto stop = [&] {
+    stamps.Close();
+    for (auto& front_end : front_ends) front_end->Close();
+  };
+  std::thread stepper([&] {
+    try {
+      while (const std::optional<Stamp> stamp = stamps.Pop()) {
+        for (SubAircraftRun& run : runs) run.shared.reset();
+        stepping = &*stamp;
+        workers.Start(stamp->stepping, job);
+        workers.Wait();
+        if (mode != "virpo") continue;
+        for (std::size_t i : stamp->stepping) {
+          const vio::PeerJoint joint = vio::PeerJointOf(*runs[i].shared);
+          for (std::size_t o : stamp->stepping) {
+            if (o != i)
+              runs[o].estimator.AddPeerJoint(runs[o].peer_index[i], static_cast<double>(stamp->t_ns) * 1e-9,
+                                             joint);
+          }
         }
       }
+    } catch (...) {
+      failure = std::current_exception();
+      stop();  // the reader stops at its next hand-over
     }
-    stepping.clear();
-  };
-  const auto step = [&](int64_t t_ns) {
-    finish_step();
+  });
+  struct JoinOnExit {  // also when the reader throws
+    std::function<void()> stop;
+    std::thread& thread;
+    ~JoinOnExit() {
+      if (!thread.joinable()) return;
+      stop();
+      thread.join();
+    }
+  } join_stepper{stop, stepper};
+
+  // Hands the stamp's pairs to the front ends and the stamp to the stepping thread; false once stopped.
+  const auto hand_over = [&](int64_t t_ns) {
+    Stamp stamp{t_ns, {}, std::vector<Inputs>(runs.size())};
     for (std::size_t i = 0; i < runs.size(); ++i) {
       SubAircraftRun& run = runs[i];
-      run.shared.reset();
       const auto pair = run.pairs.find(t_ns);
       if (pair != run.pairs.end() && pair->second.Complete()) {
-        stepping.push_back(i);
-        run.step_ns = t_ns;
-        run.step_pair = std::move(pair->second);
-        run.step_inputs = std::move(run.inputs);
+        if (!front_ends[i]->Give(t_ns, std::move(pair->second))) return false;
+        stamp.stepping.push_back(i);
+        stamp.inputs[i] = std::move(run.inputs);
         run.inputs.clear();
       }
       run.pairs.erase(run.pairs.begin(), run.pairs.upper_bound(t_ns));
     }
-    stepping_ns = t_ns;
-    workers.Start(stepping, job);
+    return stamps.Push(std::move(stamp));
+  };
+  bool handing_over = true;
+  const auto hand_over_ready = [&](bool end_of_bag) {
+    while (handing_over) {
+      const std::optional<int64_t> t_ns = NextStep(runs, end_of_bag);
+      if (!t_ns) return;
+      handing_over = hand_over(*t_ns);
+    }
   };
   bag.ForEach(topics, [&](const bridge::BagMessage& m) {
     Dispatch(m, in.bag_path, &runs[owner.at(m.topic)]);
-    while (const std::optional<int64_t> t_ns = NextStep(runs, false)) step(*t_ns);
-    return true;
+    hand_over_ready(false);
+    return handing_over;
   });
-  while (const std::optional<int64_t> t_ns = NextStep(runs, true)) step(*t_ns);
-  finish_step();
+  hand_over_ready(true);
+  stop();
+  stepper.join();
+  if (failure) std::rethrow_exception(failure);
+  front_ends.clear();  // joined: their timings are complete
 
   std::vector<SubAircraftResult> results;
   for (SubAircraftRun& run : runs) {
