@@ -197,6 +197,23 @@ expect_exit 2 "no messages on /iap/sub1/stereo/left/image_raw/compressed" \
 sed 's/hfov_deg: 90, baseline_m/hfov_deg: 80, baseline_m/' "$work/run/scenario.resolved.yaml" > "$work/other_camera.yaml"
 expect_exit 2 "/iap/sub1/stereo/left/camera_info: the recorded camera (640x480, fx 320.000" \
   "$iapsim" vio "$work/run/run.bag" --scenario "$work/other_camera.yaml"
+# stereo images that do not decode from the tenth frame on, while the front ends run ahead of the estimators
+# on threads of their own: the run stops with the topic named, nothing left waiting
+mkdir -p "$work/corrupt"
+cp "$work/run/scenario.resolved.yaml" "$work/corrupt/"
+/usr/bin/python3 - "$work/run/run.bag" "$work/corrupt/run.bag" << 'PY' || fail "could not corrupt the bag's images"
+import sys
+data = bytearray(open(sys.argv[1], "rb").read())
+signature, found, at = b"\x89PNG\r\n\x1a\n", 0, 0
+while (at := data.find(signature, at + 1)) >= 0:
+    found += 1
+    if found > 60:  # 640x480 images of tens of kilobytes: bytes 1000-1400 are inside the compressed pixels
+        data[at + 1000:at + 1400] = b"\xff" * 400
+assert found > 120, found
+open(sys.argv[2], "wb").write(data)
+PY
+expect_exit 2 "image_raw/compressed: a PNG whose image data does not inflate to 640x480 RGB pixels" \
+  "$iapsim" vio "$work/corrupt" --mode virpo
 expect_exit 2 "no stereo camera on 'iap/sub9'" "$iapsim" vio "$work/run" --sub iap/sub9
 expect_exit 2 "sub: 'sub9' has no stereo camera in this scenario" \
   "$bin/iapsim_vio" --scenario "$src/configs/scenarios/three_star_vio.yaml" --node vio_sub1 --check \
