@@ -246,20 +246,25 @@ constexpr std::size_t kStampsAhead = 8;
 // their share against other work on the machine, which the estimators wait on them for).
 constexpr int kFrontEndNiceness = 5;
 
-// One sub-aircraft's front end on a thread of its own: it decodes and tracks the pairs it is given, in order.
-// A front end needs nothing from the estimate, so it runs ahead of the lockstep estimators and fills the core
-// that the slowest estimator of a stamp leaves the others waiting on (VIRPO on (a)-2 kept 1.80-1.83 of the
-// two cores busy with decoding and tracking inside each estimator's step).
+// What a front end spent, over the pass.
+struct FrontEndTiming {
+  double decode_ms = 0.0, track_ms = 0.0;
+};
+
+// One sub-aircraft's front end on a thread of its own: it decodes and tracks the pairs it is given, in order,
+// and hands each frame to each of its `consumers` (the estimations of one pass: a frame does not depend on
+// the mode or the estimator's settings, so `--mode all` and `--mode anchors` track each image once). A front
+// end needs nothing from the estimate, so it runs ahead of the lockstep estimators and fills the core that
+// the slowest estimator of a stamp leaves the others waiting on (VIRPO on (a)-2 kept 1.80-1.83 of the two
+// cores busy with decoding and tracking inside each estimator's step).
 class FrontEnd {
  public:
-  FrontEnd(const vio::SubAircraftSetup& sub, const vio::TrackerOptions& options, SubAircraftResult* timing)
-      : sub_(sub), tracker_(sub.rig, options), timing_(timing), pairs_(kStampsAhead) {
+  FrontEnd(const vio::SubAircraftSetup& sub, const vio::TrackerOptions& options, std::size_t consumers)
+      : sub_(sub), tracker_(sub.rig, options), pairs_(kStampsAhead) {
+    for (std::size_t c = 0; c < consumers; ++c) frames_.push_back(std::make_unique<HandOver<Tracked>>());
     thread_ = std::thread([this] { Loop(); });
   }
-  ~FrontEnd() {
-    pairs_.Close();
-    thread_.join();
-  }
+  ~FrontEnd() { Join(); }
   FrontEnd(const FrontEnd&) = delete;
   FrontEnd& operator=(const FrontEnd&) = delete;
 
@@ -267,15 +272,23 @@ class FrontEnd {
   bool Give(int64_t t_ns, PendingPair pair) { return pairs_.Push({t_ns, std::move(pair)}); }
   /// No more pairs: the front end tracks what it has and stops.
   void Close() { pairs_.Close(); }
-  /// The tracked frame of `t_ns`, the next in order; rethrows the front end's failure.
-  vio::StereoFrame Take(int64_t t_ns) {
-    std::optional<Tracked> tracked = frames_.Pop();
+  /// Consumer c's tracked frame of `t_ns`, its next in order; rethrows the front end's failure.
+  vio::StereoFrame Take(std::size_t c, int64_t t_ns) {
+    std::optional<Tracked> tracked = frames_[c]->Pop();
     if (!tracked)
       throw std::runtime_error(sub_.body + ": the front end stopped before the frame it was given");
     if (tracked->failure) std::rethrow_exception(tracked->failure);
     if (tracked->t_ns != t_ns) throw std::logic_error(sub_.body + ": the front end's frames are out of step");
     return std::move(tracked->frame);
   }
+  /// Stops taking pairs and waits for the thread: what it has queued is dropped unless taken before.
+  void Join() {
+    pairs_.Close();
+    for (auto& frames : frames_) frames->Close();
+    if (thread_.joinable()) thread_.join();
+  }
+  /// What it spent; complete after Join.
+  const FrontEndTiming& timing() const { return timing_; }
 
  private:
   struct Tracked {
@@ -294,25 +307,27 @@ class FrontEnd {
         Clock::time_point stage = Clock::now();
         const render::Image left = render::DecodeImage(job->second.left, sub_.left_topic);
         const render::Image right = render::DecodeImage(job->second.right, sub_.right_topic);
-        timing_->decode_ms += Milliseconds(stage);
+        timing_.decode_ms += Milliseconds(stage);
         stage = Clock::now();
         tracked.frame = tracker_.Track(static_cast<double>(job->first) * 1e-9, left, right);
-        timing_->front_end_ms += Milliseconds(stage);
+        timing_.track_ms += Milliseconds(stage);
       } catch (...) {
         tracked.failure = std::current_exception();
       }
       const bool failed = tracked.failure != nullptr;
-      frames_.Push(std::move(tracked));
+      for (std::size_t c = 0; c + 1 < frames_.size(); ++c) frames_[c]->Push(tracked);
+      frames_.back()->Push(std::move(tracked));
       if (failed) break;
     }
-    frames_.Close();
+    for (auto& frames : frames_) frames->Close();
   }
 
   const vio::SubAircraftSetup& sub_;
   vio::StereoTracker tracker_;
-  SubAircraftResult* timing_;  ///< decode_ms and front_end_ms, written by this thread only
+  FrontEndTiming timing_;  ///< written by this thread only
   HandOver<std::pair<int64_t, PendingPair>> pairs_;
-  HandOver<Tracked> frames_;  // unbounded: the pairs' bound and the reader's hold it to a few stamps
+  // by consumer, unbounded: the pairs' bound and the reader's hold them to a few stamps
+  std::vector<std::unique_ptr<HandOver<Tracked>>> frames_;
   std::thread thread_;
 };
 
@@ -321,11 +336,9 @@ struct SubAircraftRun {
   const vio::SubAircraftSetup* input = nullptr;
   const std::map<int64_t, TruthSample>* truth = nullptr;
   vio::Estimator estimator;
-  std::vector<std::size_t> peer_index;   ///< by sub-aircraft: its index among this one's peers (virpo)
-  std::map<int64_t, PendingPair> pairs;  ///< by stamp, until the step of that stamp (the reader's)
+  std::vector<std::size_t> peer_index;  ///< by sub-aircraft: its index among this one's peers (virpo)
   Inputs inputs;  ///< IMU samples, attitudes and ranges in bag order, for the estimator's next frame (the
                   ///< reader's)
-  double last_imu_t_s = -std::numeric_limits<double>::infinity();
   std::optional<nav_msgs::Odometry> shared;  ///< this step's estimate, as the vio process publishes it
   SubAircraftResult result;
 
@@ -357,9 +370,19 @@ struct SubAircraftRun {
   }
 };
 
-// Feeds one bag message to the sub-aircraft it belongs to.
-void Dispatch(const bridge::BagMessage& m, const std::string& bag_path, SubAircraftRun* run) {
-  const vio::SubAircraftSetup& sub = *run->input;
+// What the bag has given of one sub-aircraft's images and IMU so far: the same for every estimation of the
+// pass (the reader's).
+struct SubAircraftFeed {
+  std::map<int64_t, PendingPair> pairs;  ///< by stamp, until the step of that stamp
+  double last_imu_t_s = -std::numeric_limits<double>::infinity();
+};
+
+// Feeds one bag message of a sub-aircraft to its feed (images, the IMU's clock) and to its estimation in each
+// variant of the pass (`runs`): IMU samples to all, attitudes and ranges (to the variant's own anchors) to
+// those whose mode reads them.
+void Dispatch(const bridge::BagMessage& m, const std::string& bag_path, SubAircraftFeed* feed,
+              const std::vector<SubAircraftRun*>& runs) {
+  const vio::SubAircraftSetup& sub = *runs.front()->input;  // images and IMU: the same in every variant
   std::string error;
   const auto decode = [&](auto* message) {
     if (!bridge::Decode(m.bytes, message, &error))
@@ -372,33 +395,41 @@ void Dispatch(const bridge::BagMessage& m, const std::string& bag_path, SubAircr
     sample.f_I_mps2 = bridge::FromMsg(imu.linear_acceleration);
     sample.w_I_radps = bridge::FromMsg(imu.angular_velocity);
     const double t_s = static_cast<double>(bridge::ToNanoseconds(imu.header.stamp)) * 1e-9;
-    run->last_imu_t_s = t_s;
-    run->inputs.push_back([t_s, sample](vio::Estimator& e) { e.AddImu(t_s, sample); });
-  } else if (m.topic == sub.attitude_topic) {
-    sensor_msgs::Imu attitude;
-    decode(&attitude);
-    const double t_s = static_cast<double>(bridge::ToNanoseconds(attitude.header.stamp)) * 1e-9;
-    const Eigen::Quaterniond q_WI =
-        bridge::FromMsg(attitude.orientation).normalized() * Eigen::Quaterniond(sub.X_BI.linear());
-    run->inputs.push_back([t_s, q_WI](vio::Estimator& e) { e.AddAttitude(t_s, q_WI); });
-  } else if (m.topic == sub.uwb_topic) {
-    iapsim_msgs::UwbRanges ranges;
-    decode(&ranges);
-    if (ranges.peers.size() != ranges.ranges_m.size())
-      throw DatasetError(bag_path + ": " + m.topic + ": peers and ranges_m differ in length");
-    const double t_s = static_cast<double>(bridge::ToNanoseconds(ranges.header.stamp)) * 1e-9;
-    for (std::size_t i = 0; i < ranges.peers.size(); ++i) {
-      const auto anchor = sub.anchors_W.find(ranges.peers[i]);
-      if (anchor == sub.anchors_W.end()) continue;
-      const Eigen::Vector3d p_WA = anchor->second;
-      const double range = ranges.ranges_m[i], sigma = sub.range_sigma_m;
-      run->inputs.push_back([=](vio::Estimator& e) { e.AddRange(t_s, p_WA, range, sigma); });
-    }
-  } else {
+    feed->last_imu_t_s = t_s;
+    for (SubAircraftRun* run : runs)
+      run->inputs.push_back([t_s, sample](vio::Estimator& e) { e.AddImu(t_s, sample); });
+  } else if (m.topic == sub.left_topic || m.topic == sub.right_topic) {
     sensor_msgs::CompressedImage image;
     decode(&image);
-    PendingPair& pair = run->pairs[bridge::ToNanoseconds(image.header.stamp)];
+    PendingPair& pair = feed->pairs[bridge::ToNanoseconds(image.header.stamp)];
     (m.topic == sub.left_topic ? pair.left : pair.right) = image.data;
+  } else {
+    std::optional<sensor_msgs::Imu> attitude;
+    std::optional<iapsim_msgs::UwbRanges> ranges;
+    for (SubAircraftRun* run : runs) {
+      const vio::SubAircraftSetup& mine = *run->input;
+      if (m.topic == mine.attitude_topic) {
+        if (!attitude) decode(&attitude.emplace());
+        const double t_s = static_cast<double>(bridge::ToNanoseconds(attitude->header.stamp)) * 1e-9;
+        const Eigen::Quaterniond q_WI =
+            bridge::FromMsg(attitude->orientation).normalized() * Eigen::Quaterniond(mine.X_BI.linear());
+        run->inputs.push_back([t_s, q_WI](vio::Estimator& e) { e.AddAttitude(t_s, q_WI); });
+      } else if (m.topic == mine.uwb_topic) {
+        if (!ranges) {
+          decode(&ranges.emplace());
+          if (ranges->peers.size() != ranges->ranges_m.size())
+            throw DatasetError(bag_path + ": " + m.topic + ": peers and ranges_m differ in length");
+        }
+        const double t_s = static_cast<double>(bridge::ToNanoseconds(ranges->header.stamp)) * 1e-9;
+        for (std::size_t i = 0; i < ranges->peers.size(); ++i) {
+          const auto anchor = mine.anchors_W.find(ranges->peers[i]);
+          if (anchor == mine.anchors_W.end()) continue;
+          const Eigen::Vector3d p_WA = anchor->second;
+          const double range = ranges->ranges_m[i], sigma = mine.range_sigma_m;
+          run->inputs.push_back([=](vio::Estimator& e) { e.AddRange(t_s, p_WA, range, sigma); });
+        }
+      }
+    }
   }
 }
 
@@ -407,22 +438,22 @@ void Dispatch(const bridge::BagMessage& m, const std::string& bag_path, SubAircr
 // ranges too, is in: what the vio process has at that step) and each has its own pair there or has moved
 // past it (a frame the renderer dropped for one sub-aircraft does not hold the others). At the end of the
 // bag, whatever is left.
-std::optional<int64_t> NextStep(const std::vector<SubAircraftRun>& runs, bool end_of_bag) {
+std::optional<int64_t> NextStep(const std::vector<SubAircraftFeed>& feeds, bool end_of_bag) {
   std::optional<int64_t> t_ns;
-  for (const SubAircraftRun& run : runs) {
-    for (const auto& [stamp, pair] : run.pairs) {
+  for (const SubAircraftFeed& feed : feeds) {
+    for (const auto& [stamp, pair] : feed.pairs) {
       if (!pair.Complete()) continue;
       if (!t_ns || stamp < *t_ns) t_ns = stamp;
       break;
     }
   }
   if (!t_ns || end_of_bag) return t_ns;
-  for (const SubAircraftRun& run : runs) {
+  for (const SubAircraftFeed& feed : feeds) {
     const double t_s = static_cast<double>(*t_ns) * 1e-9;
-    if (run.last_imu_t_s <= t_s) return std::nullopt;
-    const auto here = run.pairs.find(*t_ns);
-    if ((here == run.pairs.end() || !here->second.Complete()) &&
-        run.pairs.upper_bound(*t_ns) == run.pairs.end())
+    if (feed.last_imu_t_s <= t_s) return std::nullopt;
+    const auto here = feed.pairs.find(*t_ns);
+    if ((here == feed.pairs.end() || !here->second.Complete()) &&
+        feed.pairs.upper_bound(*t_ns) == feed.pairs.end())
       return std::nullopt;
   }
   return t_ns;
@@ -491,44 +522,74 @@ class StepWorkers {
   std::vector<std::thread> threads_;
 };
 
-// Every sub-aircraft's estimation in one pass over the bag, in lockstep by image stamp: at each stamp the
-// sub-aircraft's estimators step in parallel (one thread each), each seeing the others' joints as they shared
-// them after the previous stamps (as processes exchanging odometry over the bus would, seed Fig. 4), so the
-// result does not depend on the threads' timing. Three stages run at once: this thread reads the bag and
-// hands each stamp's pairs to the front ends and the stamp to the stepping thread, the front ends track
-// ahead, and the stepping thread steps the estimators a stamp at a time.
-std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const DatasetInput& in,
-                                           const std::string& mode, const vio::VioConfig& config,
-                                           const Truth& truth) {
-  std::vector<SubAircraftRun> runs;
-  runs.reserve(in.setup.subs.size());
+// One estimation of a pass over the bag: a mode and the estimator's settings, its output folder, and the run
+// as its scenario reads for it. The variants of one pass (`--mode all`, `--mode anchors`) differ in mode and
+// anchors only: the same sub-aircraft, images and tracker settings, so that their front ends are shared.
+struct Variant {
+  std::string name;  ///< its folder in a series ("virpo", "anchors_2"); empty alone
+  VioOfflineArgs args;
+  vio::VioConfig config;
+  DatasetInput in;
+  std::string out_dir;
+};
+
+// Every sub-aircraft's estimation in each variant in one pass over the bag, in lockstep by image stamp: at
+// each stamp the estimators step in parallel (one thread each), each seeing the others of its variant's
+// joints as they shared them after the previous stamps (as processes exchanging odometry over the bus would,
+// seed Fig. 4), so the result does not depend on the threads' timing, nor on the other variants of the
+// pass. Three stages run at once: this thread reads the bag and hands each stamp's pairs to the front ends
+// (one per sub-aircraft, each frame tracked once for every variant) and the stamp to the stepping thread,
+// the front ends track ahead, and the stepping thread steps the estimators a stamp at a time. Returns the
+// results by variant, then sub-aircraft.
+std::vector<std::vector<SubAircraftResult>> EstimateAll(const bridge::BagReader& bag,
+                                                        const std::vector<Variant>& variants,
+                                                        const Truth& truth) {
+  const std::vector<vio::SubAircraftSetup>& subs = variants.front().in.setup.subs;
+  const std::size_t n = subs.size();
+  const std::string& bag_path = variants.front().in.bag_path;
+  for (const Variant& variant : variants) {
+    const std::vector<vio::SubAircraftSetup>& own = variant.in.setup.subs;
+    bool same = own.size() == n;
+    for (std::size_t i = 0; same && i < n; ++i) {
+      same = own[i].body == subs[i].body && own[i].left_topic == subs[i].left_topic &&
+             own[i].right_topic == subs[i].right_topic && own[i].imu_topic == subs[i].imu_topic;
+    }
+    if (!same)
+      throw std::logic_error("the variants of one pass over " + bag_path + " read other sub-aircraft");
+  }
+  std::vector<SubAircraftFeed> feeds(n);
+  std::vector<SubAircraftRun> runs;  // variant v's sub-aircraft i at v * n + i
+  runs.reserve(variants.size() * n);
   std::map<std::string, std::size_t> owner;  // topic → sub-aircraft
   std::vector<std::string> topics;
-  for (std::size_t i = 0; i < in.setup.subs.size(); ++i) {
-    const vio::SubAircraftSetup& sub = in.setup.subs[i];
-    runs.emplace_back(sub, vio::EstimatorOptionsFor(in.setup, i, mode, config));
-    runs.back().truth = &truth.at(sub.truth_topic);
-    for (std::size_t o = 0; o < in.setup.subs.size(); ++o)
-      runs.back().peer_index.push_back(o < i ? o : o - 1);
-    for (const std::string& topic :
-         {sub.imu_topic, sub.left_topic, sub.right_topic, sub.uwb_topic, sub.attitude_topic}) {
-      if (topic.empty()) continue;
-      owner[topic] = i;
-      topics.push_back(topic);
+  for (const Variant& variant : variants) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const vio::SubAircraftSetup& sub = variant.in.setup.subs[i];
+      runs.emplace_back(sub,
+                        vio::EstimatorOptionsFor(variant.in.setup, i, variant.args.mode, variant.config));
+      runs.back().truth = &truth.at(sub.truth_topic);
+      for (std::size_t o = 0; o < n; ++o) runs.back().peer_index.push_back(o < i ? o : o - 1);
+      for (const std::string& topic :
+           {sub.imu_topic, sub.left_topic, sub.right_topic, sub.uwb_topic, sub.attitude_topic}) {
+        if (!topic.empty() && owner.emplace(topic, i).second) topics.push_back(topic);
+      }
     }
   }
+  std::vector<std::vector<SubAircraftRun*>> runs_of(n);  // by sub-aircraft, one per variant
+  for (std::size_t k = 0; k < runs.size(); ++k) runs_of[k % n].push_back(&runs[k]);
   struct Stamp {
     int64_t t_ns = 0;
-    std::vector<std::size_t> stepping;
-    std::vector<Inputs> inputs;  ///< by sub-aircraft, of those stepping
+    std::vector<std::size_t> stepping;  ///< the sub-aircraft with a pair at t_ns
+    std::vector<Inputs> inputs;         ///< by run, of those stepping
   };
   std::vector<std::unique_ptr<FrontEnd>> front_ends;
-  for (SubAircraftRun& run : runs)
-    front_ends.push_back(std::make_unique<FrontEnd>(*run.input, config.tracker, &run.result));
+  for (const vio::SubAircraftSetup& sub : subs)
+    front_ends.push_back(std::make_unique<FrontEnd>(sub, variants.front().config.tracker, variants.size()));
   HandOver<Stamp> stamps(kStampsAhead);
   const Stamp* stepping = nullptr;
-  const std::function<void(std::size_t)> job = [&](std::size_t i) {
-    runs[i].Estimate(stepping->t_ns, front_ends[i]->Take(stepping->t_ns), stepping->inputs[i], in.bag_path);
+  const std::function<void(std::size_t)> job = [&](std::size_t k) {
+    runs[k].Estimate(stepping->t_ns, front_ends[k % n]->Take(k / n, stepping->t_ns), stepping->inputs[k],
+                     bag_path);
   };
   StepWorkers workers(runs.size());  // after `job` and the front ends: joined before they go
   std::exception_ptr failure;        // the stepping thread's
@@ -539,17 +600,24 @@ std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const D
   std::thread stepper([&] {
     try {
       while (const std::optional<Stamp> stamp = stamps.Pop()) {
+        std::vector<std::size_t> which;
+        for (std::size_t v = 0; v < variants.size(); ++v) {
+          for (std::size_t i : stamp->stepping) which.push_back(v * n + i);
+        }
         for (SubAircraftRun& run : runs) run.shared.reset();
         stepping = &*stamp;
-        workers.Start(stamp->stepping, job);
+        workers.Start(which, job);
         workers.Wait();
-        if (mode != "virpo") continue;
-        for (std::size_t i : stamp->stepping) {
-          const vio::PeerJoint joint = vio::PeerJointOf(*runs[i].shared);
-          for (std::size_t o : stamp->stepping) {
-            if (o != i)
-              runs[o].estimator.AddPeerJoint(runs[o].peer_index[i], static_cast<double>(stamp->t_ns) * 1e-9,
-                                             joint);
+        for (std::size_t v = 0; v < variants.size(); ++v) {
+          if (variants[v].args.mode != "virpo") continue;
+          SubAircraftRun* const own = &runs[v * n];
+          for (std::size_t i : stamp->stepping) {
+            const vio::PeerJoint joint = vio::PeerJointOf(*own[i].shared);
+            for (std::size_t o : stamp->stepping) {
+              if (o != i)
+                own[o].estimator.AddPeerJoint(own[o].peer_index[i], static_cast<double>(stamp->t_ns) * 1e-9,
+                                              joint);
+            }
           }
         }
       }
@@ -571,29 +639,32 @@ std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const D
   // Hands the stamp's pairs to the front ends and the stamp to the stepping thread; false once stopped.
   const auto hand_over = [&](int64_t t_ns) {
     Stamp stamp{t_ns, {}, std::vector<Inputs>(runs.size())};
-    for (std::size_t i = 0; i < runs.size(); ++i) {
-      SubAircraftRun& run = runs[i];
-      const auto pair = run.pairs.find(t_ns);
-      if (pair != run.pairs.end() && pair->second.Complete()) {
+    for (std::size_t i = 0; i < n; ++i) {
+      SubAircraftFeed& feed = feeds[i];
+      const auto pair = feed.pairs.find(t_ns);
+      if (pair != feed.pairs.end() && pair->second.Complete()) {
         if (!front_ends[i]->Give(t_ns, std::move(pair->second))) return false;
         stamp.stepping.push_back(i);
-        stamp.inputs[i] = std::move(run.inputs);
-        run.inputs.clear();
+        for (std::size_t v = 0; v < variants.size(); ++v) {
+          stamp.inputs[v * n + i] = std::move(runs[v * n + i].inputs);
+          runs[v * n + i].inputs.clear();
+        }
       }
-      run.pairs.erase(run.pairs.begin(), run.pairs.upper_bound(t_ns));
+      feed.pairs.erase(feed.pairs.begin(), feed.pairs.upper_bound(t_ns));
     }
     return stamps.Push(std::move(stamp));
   };
   bool handing_over = true;
   const auto hand_over_ready = [&](bool end_of_bag) {
     while (handing_over) {
-      const std::optional<int64_t> t_ns = NextStep(runs, end_of_bag);
+      const std::optional<int64_t> t_ns = NextStep(feeds, end_of_bag);
       if (!t_ns) return;
       handing_over = hand_over(*t_ns);
     }
   };
   bag.ForEach(topics, [&](const bridge::BagMessage& m) {
-    Dispatch(m, in.bag_path, &runs[owner.at(m.topic)]);
+    const std::size_t i = owner.at(m.topic);
+    Dispatch(m, bag_path, &feeds[i], runs_of[i]);
     hand_over_ready(false);
     return handing_over;
   });
@@ -601,15 +672,19 @@ std::vector<SubAircraftResult> EstimateAll(const bridge::BagReader& bag, const D
   stop();
   stepper.join();
   if (failure) std::rethrow_exception(failure);
-  front_ends.clear();  // joined: their timings are complete
 
-  std::vector<SubAircraftResult> results;
-  for (SubAircraftRun& run : runs) {
+  std::vector<std::vector<SubAircraftResult>> results(variants.size());
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    SubAircraftRun& run = runs[k];
+    FrontEnd& front_end = *front_ends[k % n];
+    front_end.Join();  // its timing complete
+    run.result.decode_ms = front_end.timing().decode_ms;
+    run.result.front_end_ms = front_end.timing().track_ms;
     run.result.statistics = run.estimator.statistics();
     const auto& e = run.result.estimate;
     run.result.sequence_s =
         e.size() < 2 ? 0.0 : static_cast<double>(e.back().time_ns - e.front().time_ns) * 1e-9;
-    results.push_back(std::move(run.result));
+    results[k / n].push_back(std::move(run.result));
   }
   return results;
 }
@@ -661,23 +736,28 @@ nlohmann::json WriteTrajectory(const std::string& out_dir, const std::string& bo
   return entry;
 }
 
-nlohmann::json Run(const VioOfflineArgs& args) {
-  const vio::VioConfig config = vio::LoadVioConfig(args.config, args.overrides);
-  const DatasetInput in = ReadDataset(args, config);
-  const std::string out_dir = args.out_dir.empty()
-                                  ? (fs::path(in.bag_path).parent_path() / ("vio_" + args.mode)).string()
-                                  : args.out_dir;
-  fs::create_directories(out_dir);
+// A variant of the pass from its arguments; its output in `out_dir` (empty: <the bag's folder>/vio_<mode>).
+Variant MakeVariant(const std::string& name, const VioOfflineArgs& args, const std::string& out_dir) {
+  Variant variant;
+  variant.name = name;
+  variant.args = args;
+  variant.config = vio::LoadVioConfig(args.config, args.overrides);
+  variant.in = ReadDataset(args, variant.config);
+  variant.out_dir = out_dir.empty()
+                        ? (fs::path(variant.in.bag_path).parent_path() / ("vio_" + args.mode)).string()
+                        : out_dir;
+  return variant;
+}
 
-  const Clock::time_point start = Clock::now();
-  const bridge::BagReader bag(in.bag_path);
-  for (const vio::SubAircraftSetup& sub : in.setup.subs) CheckBag(bag, sub);
-  const Truth truth = ReadTruth(bag, in);
-  const std::vector<SubAircraftResult> results = EstimateAll(bag, in, args.mode, config, truth);
-  const double wall_s = Milliseconds(start) * 1e-3;
-
-  nlohmann::json report = {{"mode", args.mode}, {"bag", in.bag_path}, {"scenario", in.scenario_path}};
-  std::printf("iapsim vio --mode %s on %s\n", args.mode.c_str(), in.bag_path.c_str());
+// Writes a variant's TUM files and vio.json, prints its table and returns the report. `wall_s` is the pass's,
+// which estimated every variant of `pass` (names) at once.
+nlohmann::json Report(const Variant& variant, const std::vector<SubAircraftResult>& results,
+                      const Truth& truth, double wall_s, const std::vector<std::string>& pass) {
+  const DatasetInput& in = variant.in;
+  const std::string& mode = variant.args.mode;
+  fs::create_directories(variant.out_dir);
+  nlohmann::json report = {{"mode", mode}, {"bag", in.bag_path}, {"scenario", in.scenario_path}};
+  std::printf("iapsim vio --mode %s on %s\n", mode.c_str(), in.bag_path.c_str());
   std::printf("  %-12s %7s %9s %8s %12s %12s %18s\n", "body", "frames", "keyframes", "failures", "ATE RMSE m",
               "aligned m", "ms/frame fe|solve");
   double sequence_s = 0.0;
@@ -687,7 +767,7 @@ nlohmann::json Run(const VioOfflineArgs& args) {
     const double per_frame = r.frames > 0 ? 1.0 / r.frames : 0.0;
     bridge::AbsoluteTrajectoryError ate, ate_aligned;
     nlohmann::json& entry = report["sub_aircraft"][sub.body];
-    entry = WriteTrajectory(out_dir, sub.body, r.estimate, r.truth, &ate, &ate_aligned);
+    entry = WriteTrajectory(variant.out_dir, sub.body, r.estimate, r.truth, &ate, &ate_aligned);
     entry["frames"] = r.frames;
     entry["keyframes"] = r.statistics.keyframes;
     entry["failures"] = r.statistics.failures;
@@ -710,29 +790,60 @@ nlohmann::json Run(const VioOfflineArgs& args) {
         in.setup.platform_truth_topic.substr(1, in.setup.platform_truth_topic.rfind('/') - 1) + "/platform";
     const CentreResult c = EstimateCentre(in, results, truth);
     bridge::AbsoluteTrajectoryError ate, ate_aligned;
-    report["centre"] = WriteTrajectory(out_dir, centre, c.estimate, c.truth, &ate, &ate_aligned);
+    report["centre"] = WriteTrajectory(variant.out_dir, centre, c.estimate, c.truth, &ate, &ate_aligned);
     report["centre"]["body"] = centre;
     std::printf("  %-12s %7zu %9s %8s %12.4f %12.4f   (from the sub-aircraft and the joints)\n",
                 centre.c_str(), c.estimate.size(), "", "", ate.rmse_m, ate_aligned.rmse_m);
   }
+  const double real_time = wall_s > 0.0 ? sequence_s / wall_s : 0.0;
   report["wall_s"] = wall_s;
-  report["real_time_factor"] = wall_s > 0.0 ? sequence_s / wall_s : 0.0;
-  const std::string report_path = (fs::path(out_dir) / "vio.json").string();
+  report["real_time_factor"] = real_time;
+  std::string together;
+  if (pass.size() > 1) {
+    report["pass"] = pass;  // wall_s and real_time_factor are of them all
+    for (const std::string& name : pass) together += (together.empty() ? "" : ", ") + name;
+    together = ", estimating " + together + " in one pass";
+  }
+  const std::string report_path = (fs::path(variant.out_dir) / "vio.json").string();
   std::ofstream(report_path) << report.dump(2) << "\n";
-  std::printf("  %.1f s of data in %.1f s (%.2fx real time); %s\n", sequence_s, wall_s,
-              wall_s > 0.0 ? sequence_s / wall_s : 0.0, report_path.c_str());
+  std::printf("  %.1f s of data in %.1f s (%.2fx real time%s); %s\n", sequence_s, wall_s, real_time,
+              together.c_str(), report_path.c_str());
   return report;
 }
 
-// Runs `variants` (each a name and the arguments of one run, its output in <out_dir>/<name>) and returns the
-// ATE RMSE of each body and the centre by variant ({body: {variant: m}}), the bodies in the runs' order.
+// Estimates every variant (of one data set, see Variant) in one pass over the bag and returns their reports.
+std::vector<nlohmann::json> RunPass(const std::vector<Variant>& variants) {
+  const DatasetInput& in = variants.front().in;
+  const Clock::time_point start = Clock::now();
+  const bridge::BagReader bag(in.bag_path);
+  for (const Variant& variant : variants) {
+    for (const vio::SubAircraftSetup& sub : variant.in.setup.subs) CheckBag(bag, sub);
+  }
+  const Truth truth = ReadTruth(bag, in);
+  const std::vector<std::vector<SubAircraftResult>> results = EstimateAll(bag, variants, truth);
+  const double wall_s = Milliseconds(start) * 1e-3;
+
+  std::vector<std::string> pass;
+  for (const Variant& variant : variants) pass.push_back(variant.name);
+  std::vector<nlohmann::json> reports;
+  for (std::size_t v = 0; v < variants.size(); ++v)
+    reports.push_back(Report(variants[v], results[v], truth, wall_s, pass));
+  return reports;
+}
+
+// Runs `variants` (each a name and the arguments of one run, its output in <out_dir>/<name>) in one pass over
+// their bag and returns the ATE RMSE of each body and the centre by variant ({body: {variant: m}}), the
+// bodies in the runs' order.
 nlohmann::json RunVariants(const std::vector<std::pair<std::string, VioOfflineArgs>>& variants,
                            const fs::path& out_dir, std::vector<std::string>* bodies) {
+  std::vector<Variant> pass;
+  for (const auto& [name, args] : variants)
+    pass.push_back(MakeVariant(name, args, (out_dir / name).string()));
   nlohmann::json table = nlohmann::json::object();
-  for (const auto& [name, variant] : variants) {
-    VioOfflineArgs one = variant;
-    one.out_dir = (out_dir / name).string();
-    const nlohmann::json report = Run(one);
+  const std::vector<nlohmann::json> reports = RunPass(pass);
+  for (std::size_t v = 0; v < pass.size(); ++v) {
+    const nlohmann::json& report = reports[v];
+    const std::string& name = pass[v].name;
     for (const auto& [body, entry] : report["sub_aircraft"].items()) {
       if (!table.contains(body)) bodies->push_back(body);
       table[body][name] = entry["ate"]["rmse_m"];
@@ -861,7 +972,7 @@ int VioOffline(const VioOfflineArgs& args) {
     } else if (args.mode == "anchors") {
       CompareAnchorCounts(args);
     } else {
-      Run(args);
+      RunPass({MakeVariant("", args, args.out_dir)});
     }
     return 0;
   } catch (const bridge::ConfigError& error) {

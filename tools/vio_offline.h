@@ -17,7 +17,7 @@ struct VioOfflineArgs {
   std::string input;     ///< a run directory (run.bag, scenario.resolved.yaml) or a bag
   std::string scenario;  ///< with a bag: its scenario (default: scenario.resolved.yaml beside the bag)
   /// vio, vio_uwb, virpo; all (the three, and a table like Table VIII); anchors (VIO, then VIO+UWB with 1,
-  /// 2, ... of the scenario's anchors, and a table like Table VII)
+  /// 2, ... of the scenario's anchors, and a table like Table VII); all and anchors in one pass over the bag
   std::string mode = "vio";
   std::vector<std::string> sub_aircraft;  ///< bodies to estimate ("iap/sub1"); default: every stereo camera's
   std::string out_dir;                    ///< default: <input's folder>/vio_<mode>

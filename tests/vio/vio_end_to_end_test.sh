@@ -57,12 +57,24 @@ for f in iap_sub1_estimate.tum iap_sub1_truth.tum iap_sub3_estimate.tum iap_plat
   [ "$(grep -vc '^#' "$work/vio/$f")" -eq 31 ] || fail "$f: $(wc -l < "$work/vio/$f") lines"
 done
 
-# the same bag gives byte-identical estimates; one sub-aircraft alone gives its own the same way
+# the same bag gives byte-identical estimates, each mode alone as in the pass of --mode all (which tracks each
+# image once for the three); one sub-aircraft alone gives its own the same way
 "$iapsim" vio "$work/run/run.bag" --out "$work/again" > /dev/null
+"$iapsim" vio "$work/run" --mode virpo --out "$work/virpo_alone" > /dev/null
 "$iapsim" vio "$work/run" --sub iap/sub2 --out "$work/sub2" > /dev/null
 for sub in iap_sub1 iap_sub2 iap_sub3; do
   cmp -s "$work/vio/${sub}_estimate.tum" "$work/again/${sub}_estimate.tum" || fail "$sub differs between two runs"
+  cmp -s "$work/all/virpo/${sub}_estimate.tum" "$work/virpo_alone/${sub}_estimate.tum" ||
+    fail "$sub: VIRPO in the pass of --mode all differs from VIRPO alone"
 done
+/usr/bin/python3 - "$work/all" "$work/again/vio.json" << 'PY' || fail "the pass of --mode all: $(cat "$work/all/vio/vio.json")"
+import json, os, sys
+for mode in ("vio", "vio_uwb", "virpo"):
+    report = json.load(open(os.path.join(sys.argv[1], mode, "vio.json")))
+    assert report["mode"] == mode and report["pass"] == ["vio", "vio_uwb", "virpo"], report
+    assert report["wall_s"] > 0 and report["real_time_factor"] > 0, report
+assert "pass" not in json.load(open(sys.argv[2])), "a run of one mode is not a pass of several"
+PY
 cmp -s "$work/vio/iap_sub2_estimate.tum" "$work/sub2/iap_sub2_estimate.tum" || fail "sub2 alone differs"
 for other in iap_sub1 iap_sub3 iap_platform; do
   [ ! -e "$work/sub2/${other}_estimate.tum" ] || fail "--sub iap/sub2 estimated $other too"
