@@ -28,13 +28,17 @@ void OptionalDiagonal(bridge::YamlMap& map, const std::string& key, Vector6d* va
   OptionalNumbers<6>(map, key, value, "6 non-negative numbers [x, y, z, roll, pitch, yaw]", true);
 }
 
-// gains {kp, ki, kd, integral_limit} of the tracker
+// gains {kp, ki, kd, integral_limit, position_integral: platform | world} of the tracker
 void ReadTrackerGains(bridge::YamlMap& params, TrackerGains* gains) {
   bridge::YamlMap map = params.Map("gains");
   OptionalDiagonal(map, "kp", &gains->kp);
   OptionalDiagonal(map, "ki", &gains->ki);
   OptionalDiagonal(map, "kd", &gains->kd);
   OptionalDiagonal(map, "integral_limit", &gains->integral_limit);
+  std::string frame = gains->position_integral_frame == PositionIntegralFrame::kWorld ? "world" : "platform";
+  map.OptionalChoice("position_integral", &frame, {"platform", "world"});
+  gains->position_integral_frame =
+      frame == "world" ? PositionIntegralFrame::kWorld : PositionIntegralFrame::kPlatform;
   map.Finish();
 }
 

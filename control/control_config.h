@@ -11,8 +11,9 @@
 namespace iapsim::control {
 
 /// Reads gravity_mps2, gains {kp, ki, kd, integral_limit} (6 numbers each: x, y, z, roll, pitch, yaw;
-/// defaults: Table II), limits {max_thrust_fraction, max_tilt_deg} and sub_aircraft_yaw (reference |
-/// platform). Throws bridge::ConfigError naming the file, key and line.
+/// defaults: Table II) and gains.position_integral (platform, as (10): default | world), limits
+/// {max_thrust_fraction, max_tilt_deg} and sub_aircraft_yaw (reference | platform). Throws
+/// bridge::ConfigError naming the file, key and line.
 IapControllerConfig ReadControllerConfig(bridge::YamlMap& params);
 
 /// Reads the section `admittance: {mass, damping, stiffness (6 numbers each: x, y, z, roll, pitch, yaw;

@@ -3,7 +3,9 @@
 namespace iapsim::control {
 namespace {
 
-Eigen::Vector3d Vee(const Eigen::Matrix3d& skew) { return Eigen::Vector3d(skew(2, 1), skew(0, 2), skew(1, 0)); }
+Eigen::Vector3d Vee(const Eigen::Matrix3d& skew) {
+  return Eigen::Vector3d(skew(2, 1), skew(0, 2), skew(1, 0));
+}
 
 // r_0 of (11): the unit direction of the joint line in P (e1 for the paper's two- and three-line IAPs),
 // oriented along +x where it has an x component. Only meaningful for collinear joints.
@@ -57,7 +59,8 @@ Vector6d Tracker::Update(const PoseReference& reference, const PlatformState& st
     const Eigen::Vector3d& w_ref = reference.w_WP_P_radps;
     const Eigen::Vector3d r_ref_W = R_ref * r0;
     const Eigen::Vector3d dr_ref_W = R_ref * w_ref.cross(r0);
-    const Eigen::Vector3d ddr_ref_W = R_ref * (reference.dw_WP_P_radps2.cross(r0) + w_ref.cross(w_ref.cross(r0)));
+    const Eigen::Vector3d ddr_ref_W =
+        R_ref * (reference.dw_WP_P_radps2.cross(r0) + w_ref.cross(w_ref.cross(r0)));
     e_R = -r0.cross(R.transpose() * r_ref_W);
     w_ref_P = R.transpose() * r_ref_W.cross(dr_ref_W);
     dw_ref_P = R.transpose() * r_ref_W.cross(ddr_ref_W) - w.cross(w_ref_P);
@@ -69,9 +72,15 @@ Vector6d Tracker::Update(const PoseReference& reference, const PlatformState& st
     // u_u = 0: nothing acts about the joint line, so its rate error is no error of this law.
     error_.e_xi.tail<3>() -= line_P_.dot(error_.e_xi.tail<3>()) * line_P_;
   }
+  const bool in_world = gains_.position_integral_frame == PositionIntegralFrame::kWorld;
   if (integrate) {
-    integral_ = (integral_ + error_.e_T * dt_s).cwiseMax(-gains_.integral_limit).cwiseMin(gains_.integral_limit);
+    Vector6d e_integrated = error_.e_T;
+    if (in_world) e_integrated.head<3>() = state.p_WP_m - reference.p_WP_m;
+    integral_ =
+        (integral_ + e_integrated * dt_s).cwiseMax(-gains_.integral_limit).cwiseMin(gains_.integral_limit);
   }
+  Vector6d integral_term_P = gains_.ki.cwiseProduct(integral_);
+  if (in_world) integral_term_P.head<3>() = R.transpose() * integral_term_P.head<3>();
 
   const Eigen::Vector3d weight_P = mass_kg_ * gravity_mps2_ * (R.transpose() * Eigen::Vector3d::UnitZ());
   Vector6d G;
@@ -79,7 +88,7 @@ Vector6d Tracker::Update(const PoseReference& reference, const PlatformState& st
   Vector6d feedforward;  // Mξ̄̇ + Cξ̄ with C = diag((mω)^, −(Jω)^)
   feedforward << mass_kg_ * (dv_ref_P + w.cross(v_ref_P)),
       J_P_kgm2_ * dw_ref_P - (J_P_kgm2_ * w).cross(w_ref_P);
-  Vector6d U = feedforward - gains_.kp.cwiseProduct(error_.e_T) - gains_.ki.cwiseProduct(integral_) -
+  Vector6d U = feedforward - gains_.kp.cwiseProduct(error_.e_T) - integral_term_P -
                gains_.kd.cwiseProduct(error_.e_xi) - G - external_wrench_P;
   if (!fully_actuated()) {
     // u_u = 0 of (13): drop the moment about the joint line itself, taken about a point on the line, which

@@ -16,14 +16,29 @@
 
 namespace iapsim::control {
 
+/// Where the position part of k^I ∫e_T dt integrates.
+enum class PositionIntegralFrame {
+  /// (10) as the seed writes it: ∫ R_0ᵀ(p − p̄) dt, the errors in P summed. What it has learnt (a wind, a
+  /// weight the model lacks) turns with the platform, so a platform that yaws (or rolls) away from where it
+  /// learnt it pushes sideways until the integral catches up: in a steady wind, the error across the wind
+  /// follows the yaw.
+  kPlatform,
+  /// ∫ (p − p̄) dt in W, turned into P when applied: the integral holds a disturbance that is fixed in W (a
+  /// wind, a mass error) whatever the platform's attitude, as a multirotor's position loop usually does (PX4
+  /// integrates its velocity error in NED).
+  kWorld,
+};
+
 /// Diagonal gains per axis, ordered x, y, z (position, in P) then roll, pitch, yaw (attitude, about P's
 /// axes). Defaults: the seed's Table II, used for every IAP in the paper.
 struct TrackerGains {
   Vector6d kp = (Vector6d() << 8, 8, 8, 8, 5, 6).finished();       // N/m, N·m/rad
-  Vector6d ki = (Vector6d() << 1, 1, 1, 1, 1, 1).finished();       // N/(m·s), N·m/(rad·s)
+  Vector6d ki = (Vector6d() << 1, 1, 1, 1, 1, 1).finished();       // N/(m·s), N·m/(rad·s); position: per W
+                                                                   // axis with kWorld
   Vector6d kd = (Vector6d() << 10, 10, 5, 10, 10, 15).finished();  // N/(m/s), N·m/(rad/s)
   /// Anti-windup: |∫e_T dt| per axis is held within these bounds (m·s, rad·s).
   Vector6d integral_limit = (Vector6d() << 5, 5, 5, 1, 1, 1).finished();
+  PositionIntegralFrame position_integral_frame = PositionIntegralFrame::kPlatform;
 };
 
 /// The platform's measured state: pose in W and twist in P (the frame of equation (4)).
@@ -53,10 +68,11 @@ class Tracker {
   /// U (in P, about P's origin) for the reference at this instant. `external_wrench_P` is F_e of (10), the
   /// measured or estimated contact wrench on the platform (zero in free flight). `integrate` false holds
   /// the integral (conditional integration while the allocation saturates). Inputs must be finite.
-  Vector6d Update(const PoseReference& reference, const PlatformState& state, const Vector6d& external_wrench_P,
-                  double dt_s, bool integrate);
+  Vector6d Update(const PoseReference& reference, const PlatformState& state,
+                  const Vector6d& external_wrench_P, double dt_s, bool integrate);
 
   const TrackingError& error() const { return error_; }
+  /// ∫e_T dt: its position part in P, or in W with PositionIntegralFrame::kWorld.
   const Vector6d& integral() const { return integral_; }
   void Reset() { integral_.setZero(); }
 
@@ -66,7 +82,7 @@ class Tracker {
   double mass_kg_;
   Eigen::Matrix3d J_P_kgm2_;
   Eigen::Vector3d d_0_P_m_;
-  Eigen::Vector3d line_P_ = Eigen::Vector3d::UnitX();  // r_0: the joint line (under-actuated IAPs)
+  Eigen::Vector3d line_P_ = Eigen::Vector3d::UnitX();         // r_0: the joint line (under-actuated IAPs)
   Eigen::Vector3d line_point_P_m_ = Eigen::Vector3d::Zero();  // a point of the joint line
   double gravity_mps2_;
   Vector6d integral_ = Vector6d::Zero();

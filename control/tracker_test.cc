@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "control/control_config.h"
 #include "control/iap_controller.h"
 
 namespace iapsim::control {
@@ -18,7 +19,8 @@ model::Vehicle Shipped(const std::string& name) {
 }
 
 Vector6d Gravity(const model::Vehicle& vehicle, const Eigen::Matrix3d& R_WP) {
-  const Eigen::Vector3d weight_P = vehicle.TotalMass_kg() * kGravity * (R_WP.transpose() * Eigen::Vector3d::UnitZ());
+  const Eigen::Vector3d weight_P =
+      vehicle.TotalMass_kg() * kGravity * (R_WP.transpose() * Eigen::Vector3d::UnitZ());
   Vector6d G;
   G << weight_P, vehicle.CenterOfMass_P_m().cross(weight_P);
   return G;
@@ -73,9 +75,10 @@ TEST(Tracker, ErrorsFollowTableTwoGainsAndSigns) {
   PlatformState state;
   state.p_WP_m = {1.0, 0, 0};  // 1 m ahead in x
   state.v_WP_P_mps = {0, 0, 0.5};
-  const Vector6d U = tracker.Update(reference, state, Vector6d::Zero(), kDt, false) + Gravity(v, Eigen::Matrix3d::Identity());
-  EXPECT_NEAR(U[0], -8.0, 1e-12);          // k^P_x e_x pushes back
-  EXPECT_NEAR(U[2], -5.0 * 0.5, 1e-12);    // k^D_z damps the descent
+  const Vector6d U = tracker.Update(reference, state, Vector6d::Zero(), kDt, false) +
+                     Gravity(v, Eigen::Matrix3d::Identity());
+  EXPECT_NEAR(U[0], -8.0, 1e-12);                 // k^P_x e_x pushes back
+  EXPECT_NEAR(U[2], -5.0 * 0.5, 1e-12);           // k^D_z damps the descent
   EXPECT_NEAR(U[5], 6.0 * std::sin(0.01), 1e-9);  // yaw torque turns toward the reference
 }
 
@@ -91,6 +94,53 @@ TEST(Tracker, IntegralIsClampedAndHeldOnRequest) {
   tracker.Reset();
   tracker.Update(reference, state, Vector6d::Zero(), kDt, false);
   EXPECT_EQ(tracker.integral()[0], 0.0);
+}
+
+// A position error held 1 s at yaw 0 (1 m·s of integral in x), then the platform and its reference yawed
+// 90°: the integral's force, in W, as each frame of the position integral leaves it.
+Eigen::Vector3d IntegralForceAfterAYaw_W(PositionIntegralFrame frame) {
+  const model::Vehicle v = Shipped("three_star");
+  TrackerGains gains;
+  gains.kp.setZero();
+  gains.kd.setZero();
+  gains.position_integral_frame = frame;
+  Tracker tracker(v, gains, kGravity);
+  PoseReference reference;
+  PlatformState state;
+  state.p_WP_m = {1.0, 0, 0};
+  for (int k = 0; k < 200; ++k) tracker.Update(reference, state, Vector6d::Zero(), kDt, true);
+  reference.q_WP = state.q_WP = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ());
+  const Eigen::Matrix3d R = state.q_WP.toRotationMatrix();
+  const Vector6d U = tracker.Update(reference, state, Vector6d::Zero(), kDt, false) + Gravity(v, R);
+  return R * U.head<3>();
+}
+
+TEST(Tracker, APlatformIntegralTurnsWithThePlatformAWorldIntegralHoldsItsDirection) {
+  // k^I_x = 1 over 1 m·s: 1 N against the error, along −x of W where it was learnt
+  EXPECT_LT((IntegralForceAfterAYaw_W(PositionIntegralFrame::kWorld) - Eigen::Vector3d(-1, 0, 0)).norm(),
+            1e-9);
+  // (10) as written: along −x of P, now −y of W
+  EXPECT_LT((IntegralForceAfterAYaw_W(PositionIntegralFrame::kPlatform) - Eigen::Vector3d(0, -1, 0)).norm(),
+            1e-9);
+}
+
+TEST(ReadControllerConfig, PositionIntegralIsTheSeedsUnlessTheScenarioSaysWorld) {
+  const auto read = [](const std::string& yaml) {
+    bridge::YamlMap params(YAML::Load(yaml), "scenario.yaml", "processes.control.params");
+    return ReadControllerConfig(params).gains.position_integral_frame;
+  };
+  EXPECT_EQ(read("gravity_mps2: 9.81\n"), PositionIntegralFrame::kPlatform);
+  EXPECT_EQ(read("gains: {position_integral: world}\n"), PositionIntegralFrame::kWorld);
+  try {
+    read("gains: {position_integral: body}\n");
+    ADD_FAILURE() << "no error for position_integral: body";
+  } catch (const bridge::ConfigError& e) {
+    EXPECT_NE(
+        std::string(e.what()).find(
+            "processes.control.params.gains.position_integral: must be one of platform, world, got 'body'"),
+        std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Tracker, ExternalWrenchIsCancelled) {
@@ -158,14 +208,16 @@ TEST(IapController, CommandsPointEachThrustVectorAlongTheAllocation) {
   IapController controller(v, IapControllerConfig());
   PoseReference reference;
   reference.a_WP_W_mps2 = {1.0, -0.5, -0.3};
-  reference.q_WP = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX());
+  reference.q_WP =
+      Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX());
   PlatformState state;
   state.q_WP = Eigen::AngleAxisd(0.15, Eigen::Vector3d::UnitZ());
   ASSERT_TRUE(controller.Update(reference, state, Vector6d::Zero(), kDt));
   const ControlOutput& out = controller.output();
   ASSERT_FALSE(out.saturated);
   for (size_t i = 0; i < out.sub_aircraft.size(); ++i) {
-    const Eigen::Vector3d commanded_W = out.sub_aircraft[i].q_WS * Eigen::Vector3d(0, 0, -out.sub_aircraft[i].thrust_N);
+    const Eigen::Vector3d commanded_W =
+        out.sub_aircraft[i].q_WS * Eigen::Vector3d(0, 0, -out.sub_aircraft[i].thrust_N);
     EXPECT_LT((commanded_W - state.q_WP * out.thrusts_P_N.segment<3>(3 * i)).norm(), 1e-9) << i;
     // yaw policy kReference: the reference's yaw plus the initial yaw
     const double yaw = YawOf(out.sub_aircraft[i].q_WS.toRotationMatrix());
