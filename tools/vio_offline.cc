@@ -755,7 +755,6 @@ nlohmann::json Report(const Variant& variant, const std::vector<SubAircraftResul
                       const Truth& truth, double wall_s, const std::vector<std::string>& pass) {
   const DatasetInput& in = variant.in;
   const std::string& mode = variant.args.mode;
-  fs::create_directories(variant.out_dir);
   nlohmann::json report = {{"mode", mode}, {"bag", in.bag_path}, {"scenario", in.scenario_path}};
   std::printf("iapsim vio --mode %s on %s\n", mode.c_str(), in.bag_path.c_str());
   std::printf("  %-12s %7s %9s %8s %12s %12s %18s\n", "body", "frames", "keyframes", "failures", "ATE RMSE m",
@@ -814,6 +813,8 @@ nlohmann::json Report(const Variant& variant, const std::vector<SubAircraftResul
 // Estimates every variant (of one data set, see Variant) in one pass over the bag and returns their reports.
 std::vector<nlohmann::json> RunPass(const std::vector<Variant>& variants) {
   const DatasetInput& in = variants.front().in;
+  // before the estimation, so that an output folder that cannot be made fails at once
+  for (const Variant& variant : variants) fs::create_directories(variant.out_dir);
   const Clock::time_point start = Clock::now();
   const bridge::BagReader bag(in.bag_path);
   for (const Variant& variant : variants) {
