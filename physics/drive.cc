@@ -122,11 +122,13 @@ void ElectricDrive::Step(const RotorVector& thrusts_N, double dt_s, Rotors* roto
   }
   const double up = up_gain_, down = down_gain_;
   RotorVector speeds = rotors->speeds_rad_s();
+  // rotor by rotor in separate passes: the rotors' square roots and divisions do not wait on each other
+  for (int j = 0; j < speeds.size(); ++j) throttle_[j] = ThrottleForThrust(thrusts_N[j]);
+  RotorVector steady_rad_s(speeds.size());
+  for (int j = 0; j < speeds.size(); ++j) steady_rad_s[j] = SteadySpeed_rad_s(throttle_[j], voltage_V_);
   current_A_ = 0.0;
   for (int j = 0; j < speeds.size(); ++j) {
-    throttle_[j] = ThrottleForThrust(thrusts_N[j]);
-    const double steady_rad_s = SteadySpeed_rad_s(throttle_[j], voltage_V_);
-    speeds[j] += (steady_rad_s - speeds[j]) * (steady_rad_s > speeds[j] ? up : down);
+    speeds[j] += (steady_rad_s[j] - speeds[j]) * (steady_rad_s[j] > speeds[j] ? up : down);
     current_A_ += throttle_[j] * MotorCurrent_A(speeds[j]);
   }
   rotors->SetDrivenSpeeds(speeds);

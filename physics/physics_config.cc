@@ -317,8 +317,9 @@ PhysicsConfig ReadPhysicsConfig(YamlMap& params, const std::string& scenario_fil
     double heading_sigma_deg = out.heading_sigma_rad * 180.0 / M_PI;
     estimate.OptionalInRange("heading_sigma_deg", &heading_sigma_deg, 0.0, 180.0);
     out.heading_sigma_rad = heading_sigma_deg * M_PI / 180.0;
-    for (const auto& [key, value] :
-         {std::pair{"velocity_rate_hz", &out.velocity_rate_hz}, {"heading_rate_hz", &out.heading_rate_hz}}) {
+    for (const auto& [key, value] : {std::pair{"velocity_rate_hz", &out.velocity_rate_hz},
+                                     {"heading_rate_hz", &out.heading_rate_hz},
+                                     {"imu_integration_rate_hz", &out.imu_integration_rate_hz}}) {
       estimate.Optional(key, value);
       if (!(*value > 0.0 && *value <= 1.0 / config.simulation.step_s)) {
         estimate.Fail(key, "expected a rate in (0, the physics rate] Hz");

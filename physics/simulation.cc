@@ -11,6 +11,17 @@
 namespace iapsim::physics {
 namespace {
 
+// The wakes are a quasi-steady model (physics/rotor.h): their air takes 0.1-0.2 s to travel the 20 rotor
+// radii they reach (at the F450's far-wake speed 2 v_h, 12 m/s in hover), so a rotor's push on what lies
+// below it changes over tens of milliseconds. Its ray casts are evaluated at 200 Hz and the forces held
+// between, which leaves the wake at a twentieth of its travel time behind the rotors and the bodies it hits.
+constexpr double kWakeRate_hz = 200.0;
+
+// The turbulence is sampled at 200 Hz and held between samples: each sample is exact at any interval (Van
+// Loan's discretisation, physics/wind.h), and at low altitude the spectra's corners V/L lie at a few rad/s
+// (L_w is the height), so what lies above 100 Hz is a few millionths of the variance.
+constexpr double kTurbulenceRate_hz = 200.0;
+
 // a rate's period in whole physics steps, at least one
 int64_t EveryStepsAt(double rate_hz, double step_s) {
   if (!(rate_hz > 0.0)) throw std::invalid_argument("a flight controller's aiding rate must be positive");
@@ -26,7 +37,11 @@ Simulation::Simulation(const SimulationConfig& config)
       ground_z_m_(config.world.ground ? config.world.ground_z_m : 0.0),
       estimate_(config.flight_controller_estimate),
       velocity_every_steps_(EveryStepsAt(config.flight_controller_estimate.velocity_rate_hz, config.step_s)),
-      heading_every_steps_(EveryStepsAt(config.flight_controller_estimate.heading_rate_hz, config.step_s)) {
+      heading_every_steps_(EveryStepsAt(config.flight_controller_estimate.heading_rate_hz, config.step_s)),
+      imu_integration_steps_(static_cast<int>(
+          EveryStepsAt(config.flight_controller_estimate.imu_integration_rate_hz, config.step_s))),
+      wake_every_steps_(EveryStepsAt(kWakeRate_hz, config.step_s)),
+      turbulence_every_steps_(EveryStepsAt(kTurbulenceRate_hz, config.step_s)) {
   vehicle_of_body_.assign(world_.body_count(), -1);
   for (const auto& spec : config.vehicles) {
     for (const auto& other : vehicles_) {
@@ -205,11 +220,14 @@ void Simulation::ApplyAir(VehicleSim& vehicle) {
     // frozen turbulence carried past the vehicle at its airspeed (at least 0.5 m/s: the model needs V > 0,
     // and a hover in still air sees the gusts change no faster than that); u along the mean wind's
     // horizontal direction (north without one), v to its right, w down
-    const Eigen::Vector3d air_W = air_.wind_W_mps - platform.v_WBcom_W;
-    const double airspeed_mps = std::max(air_W.norm(), 0.5);
-    const double height_m = std::max(ground_z_m_ - platform.p_WBcom_m.z(), 0.0);
-    const Eigen::Vector3d gust =
-        vehicle.turbulence->Step(LowAltitudeDryden(height_m, air_.w20_mps), airspeed_mps, world_.step_s());
+    if (due_.turbulence) {
+      const Eigen::Vector3d air_W = air_.wind_W_mps - platform.v_WBcom_W;
+      const double airspeed_mps = std::max(air_W.norm(), 0.5);
+      const double height_m = std::max(ground_z_m_ - platform.p_WBcom_m.z(), 0.0);
+      vehicle.gust_mps = vehicle.turbulence->Step(LowAltitudeDryden(height_m, air_.w20_mps), airspeed_mps,
+                                                  turbulence_every_steps_ * world_.step_s());
+    }
+    const Eigen::Vector3d& gust = vehicle.gust_mps;
     Eigen::Vector3d along(air_.wind_W_mps.x(), air_.wind_W_mps.y(), 0.0);
     along = along.norm() > 1e-9 ? along.normalized() : Eigen::Vector3d::UnitX();
     wind_W += gust.x() * along + gust.y() * Eigen::Vector3d::UnitZ().cross(along) +
@@ -242,27 +260,27 @@ void Simulation::ApplyRotorAir(VehicleSim& vehicle, int s) {
   SubAircraftOutput& out = vehicle.output.sub_aircraft[s];
   const BodyState& state = world_.body(vehicle.output.sub_aircraft_bodies[s]);
   const model::RotorSet& rotors = sim.rotors->set();
+  const Eigen::Matrix3d R_WS = state.q_WB.toRotationMatrix();  // once for the hubs and the drag
   if (air_.ground_effect && rotors.radius_m > 0.0) {
     // the wake leaves along +z_S; the image model holds for a surface across it, so the distance is taken
     // along the rotor axis (for a tilted rotor over flat ground, its height / cos(tilt)); beyond 10 radii the
     // ratio is within 0.07 % of 1 and no surface is looked for
     const double reach_m = 10.0 * rotors.radius_m;
-    const Eigen::Vector3d axis_W = state.q_WB * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d axis_W = R_WS.col(2);
     for (int j = 0; j < sim.rotors->count(); ++j) {
-      const Eigen::Vector3d hub_W = state.p_WB_m + state.q_WB * rotors.hub_S_m[j];
+      const Eigen::Vector3d hub_W = state.p_WB_m + R_WS * rotors.hub_S_m[j];
       const double distance_m = world_.StaticSurfaceDistance_m(hub_W, axis_W, reach_m);
       out.thrust_ratio[j] =
           distance_m < reach_m ? CheesemanBennettThrustRatio(distance_m / rotors.radius_m) : 1.0;
     }
   }
   if (air_.rotor_drag) {
-    const Eigen::Quaterniond q_SW = state.q_WB.conjugate();
     Eigen::Vector3d force_S, torque_S;
-    sim.rotors->AirWrench_S(q_SW * (state.v_WBcom_W - vehicle.output.wind_W_mps), q_SW * state.w_WB_W,
-                            &force_S, &torque_S);
-    const Eigen::Vector3d force_W = state.q_WB * force_S;
+    sim.rotors->AirWrench_S(R_WS.transpose() * (state.v_WBcom_W - vehicle.output.wind_W_mps),
+                            R_WS.transpose() * state.w_WB_W, &force_S, &torque_S);
+    const Eigen::Vector3d force_W = R_WS * force_S;
     world_.AddForce_W(vehicle.output.sub_aircraft_bodies[s], force_W);
-    world_.AddTorque_W(vehicle.output.sub_aircraft_bodies[s], state.q_WB * torque_S);
+    world_.AddTorque_W(vehicle.output.sub_aircraft_bodies[s], R_WS * torque_S);
     out.air_force_W_N += force_W;
     vehicle.output.air_force_W_N += force_W;
   }
@@ -286,8 +304,19 @@ void Simulation::AddAirForce(int body, const Eigen::Vector3d& force_W_N, const E
 // along the rotor axis at its far speed 2 v_h and the air around carries it (the skewed wake of forward
 // flight, as in Glauert's model of it). Bounding spheres first: a body whose sphere cannot reach the wake's
 // cone is not ray-tested, so a vehicle whose wakes pass clear of everything pays a few products per rotor.
-void Simulation::ApplyDownwash(const VehicleSim& vehicle, int s) {
-  const SubAircraftSim& sim = vehicle.sub_aircraft[s];
+// Evaluated at kWakeRate_hz (EvaluateWakes), each force held on the point it hit, on the body that moves.
+void Simulation::ApplyDownwash(VehicleSim& vehicle, int s) {
+  SubAircraftSim& sim = vehicle.sub_aircraft[s];
+  if (due_.wakes) EvaluateWakes(vehicle, s);
+  for (const SubAircraftSim::WakeForce& wake : sim.wake_forces) {
+    const BodyState& hit = world_.body(wake.body);
+    AddAirForce(wake.body, wake.force_W_N, hit.p_WBcom_m + hit.q_WB * wake.p_CH_B_m);
+  }
+}
+
+void Simulation::EvaluateWakes(VehicleSim& vehicle, int s) {
+  SubAircraftSim& sim = vehicle.sub_aircraft[s];
+  sim.wake_forces.clear();
   const model::RotorSet& rotors = sim.rotors->set();
   const double radius_m = rotors.radius_m;
   if (!(radius_m > 0.0 && air_.density_kgpm3 > 0.0)) return;
@@ -343,8 +372,10 @@ void Simulation::ApplyDownwash(const VehicleSim& vehicle, int s) {
       }
       if (hit < 0) continue;
       const double distance_m = fraction * reach_m;  // along the wake
-      AddAirForce(hit, share * WakeMomentumFlux_N(thrust_N, distance_m, radius_m) * along_W,
-                  from_W + fraction * (to_W - from_W));
+      const BodyState& target = world_.body(hit);
+      sim.wake_forces.push_back(
+          {hit, share * WakeMomentumFlux_N(thrust_N, distance_m, radius_m) * along_W,
+           target.q_WB.conjugate() * (from_W + fraction * (to_W - from_W) - target.p_WBcom_m)});
     }
   }
 }
@@ -409,15 +440,9 @@ void Simulation::SenseRotation(SubAircraftSim& sim, const BodyState& state, Eige
   alpha_WS_S_radps2->setZero();  // no D term on the truth
   if (!sim.imu) return;
   // the IMU mounted level at the sub-aircraft's origin: I = S
-  Eigen::Vector3d w_I_radps;
+  Eigen::Vector3d w_I_radps = sim.attitude ? sim.imu->SampleGyroscopeInInterval(*w_WS_S_radps, dt)
+                                           : sim.imu->SampleGyroscope(*w_WS_S_radps, dt);
   if (sim.attitude) {
-    sensors::BodyKinematics truth;
-    truth.q_WB = state.q_WB;
-    truth.w_WB_B_radps = *w_WS_S_radps;
-    truth.alpha_WB_B_radps2 = q_SW * state.alpha_WB_W;
-    truth.a_WB_W_mps2 = state.a_WB_W;
-    const sensors::ImuSample sample = sim.imu->Sample(truth, dt);
-    w_I_radps = sample.w_I_radps;
     const FlightControllerEstimate& estimate = estimate_;
     const int64_t k = step_count();
     // a heading, or the mean of a second of them
@@ -438,16 +463,28 @@ void Simulation::SenseRotation(SubAircraftSim& sim, const BodyState& state, Eige
           sensors::LevelFromSpecificForce(f_at_rest_S_mps2, yaw_rad(estimate.heading_rate_hz)),
           gyroscope_bias_S_radps);
     }
-    if (k % velocity_every_steps_ == 0) {
+    if (due_.velocity) {
       sim.attitude->UpdateVelocity(
           state.v_WB_W + estimate.velocity_sigma_mps * sensors::Gaussian3(sim.aiding_random), k * dt);
     }
-    if (k % heading_every_steps_ == 0) sim.attitude->UpdateHeading(yaw_rad(1.0), heading_every_steps_ * dt);
-    sim.attitude->Update(sample.w_I_radps, sample.f_I_mps2 - sim.accelerometer_offset_S_mps2, dt);
+    if (due_.heading) sim.attitude->UpdateHeading(yaw_rad(1.0), heading_every_steps_ * dt);
+    // the filter on the IMU's means over PX4's integration interval (f = R_WSᵀ (a − g) at the origin)
+    sim.w_sum_S_radps += w_I_radps;
+    sim.f_sum_S_mps2 += q_SW * (state.a_WB_W - gravity_W_);
+    if (++sim.integrated_steps == imu_integration_steps_) {
+      const double interval_s = imu_integration_steps_ * dt;
+      const Eigen::Vector3d f_S_mps2 =
+          sim.imu->EndInterval(sim.f_sum_S_mps2 / imu_integration_steps_, interval_s);
+      sim.attitude->Update(sim.w_sum_S_radps / imu_integration_steps_,
+                           f_S_mps2 - sim.accelerometer_offset_S_mps2, interval_s);
+      sim.w_sum_S_radps.setZero();
+      sim.f_sum_S_mps2.setZero();
+      sim.integrated_steps = 0;
+    } else {
+      sim.attitude->Propagate(w_I_radps, dt);
+    }
     *q_WS = sim.attitude->q_WB();
     w_I_radps -= sim.attitude->gyroscope_bias_B_radps();
-  } else {
-    w_I_radps = sim.imu->SampleGyroscope(*w_WS_S_radps, dt);
   }
   sim.gyro->Update(w_I_radps);
   *w_WS_S_radps = sim.gyro->rate_S_radps();
@@ -455,8 +492,11 @@ void Simulation::SenseRotation(SubAircraftSim& sim, const BodyState& state, Eige
 }
 
 void Simulation::Step() {
+  const int64_t k = step_count();
+  due_ = {k % turbulence_every_steps_ == 0, k % wake_every_steps_ == 0, k % velocity_every_steps_ == 0,
+          k % heading_every_steps_ == 0};
   for (auto& vehicle : vehicles_) ApplyAir(*vehicle);  // before any wake reaches another vehicle
-  if (air_.enabled && air_.downwash) {
+  if (air_.enabled && air_.downwash && due_.wakes) {
     for (WakeTarget& target : wake_targets_) target.p_WC_m = world_.body(target.body).p_WBcom_m;
   }
   for (auto& vehicle : vehicles_) {

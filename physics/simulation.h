@@ -151,6 +151,11 @@ struct FlightControllerEstimate {
   double velocity_sigma_mps = 0.02;  // per axis; the realistic profile's odometry velocity noise
   double heading_rate_hz = 10.0;
   double heading_sigma_rad = 2.0 * M_PI / 180.0;
+  // PX4's IMU_INTEG_RATE (src/modules/sensors/vehicle_imu/imu_parameters.c, default 200 Hz): the filter
+  // updates on the IMU's means over each such interval; between updates its attitude is turned by each
+  // gyroscope sample (ComplementaryAttitudeFilter::Propagate), so the attitude loop flies at every step on
+  // a current attitude (PX4 runs its attitude loop at this rate on the attitude it publishes; not modelled)
+  double imu_integration_rate_hz = 200.0;
 };
 
 struct SimulationConfig {
@@ -201,7 +206,7 @@ struct VehicleOutput {
   // setpoints asking for more collective thrust than the rotors give, or less than none: clamped to that
   // range, as a flight controller's normalised thrust is to [0, 1]
   uint64_t clamped_thrust_commands = 0;
-  uint64_t saturated_steps = 0;   // sub-aircraft steps where a mixer cut
+  uint64_t saturated_steps = 0;  // sub-aircraft steps where a mixer cut
   struct {
     uint64_t roll_pitch = 0, thrust = 0, yaw = 0;
   } mixer_cut_steps;  // the same per axis (Rotors::Mix's order: yaw is cut first, roll/pitch last)
@@ -265,11 +270,22 @@ class Simulation {
     std::unique_ptr<Rotors> known_rotors;
     const Rotors& controller_rotors() const { return known_rotors ? *known_rotors : *rotors; }
     std::unique_ptr<FlightController> controller;
-    std::unique_ptr<ElectricDrive> drive;  // when the actuation is modelled
+    std::unique_ptr<ElectricDrive> drive;    // when the actuation is modelled
     std::unique_ptr<sensors::ImuModel> imu;  // when the flight controller runs on its own gyroscope
     std::unique_ptr<GyroFilter> gyro;
     // when it also estimates its attitude: the filter, and the stream of its aiding measurements' noise
     std::unique_ptr<sensors::ComplementaryAttitudeFilter> attitude;
+    // the gyroscope's readings and the true specific force (in S) summed over the integration interval so far
+    Eigen::Vector3d w_sum_S_radps = Eigen::Vector3d::Zero();
+    Eigen::Vector3d f_sum_S_mps2 = Eigen::Vector3d::Zero();
+    int integrated_steps = 0;
+    // the forces of its rotors' wakes as last evaluated (EvaluateWakes), held until the next evaluation
+    struct WakeForce {
+      int body = 0;  // what the ray hit
+      Eigen::Vector3d force_W_N = Eigen::Vector3d::Zero();
+      Eigen::Vector3d p_CH_B_m = Eigen::Vector3d::Zero();  // the point hit from that body's CoM, in its frame
+    };
+    std::vector<WakeForce> wake_forces;
     Eigen::Vector3d accelerometer_offset_S_mps2 = Eigen::Vector3d::Zero();  // its calibration
     std::mt19937_64 aiding_random;
     SubAircraftSetpoint setpoint;
@@ -281,7 +297,8 @@ class Simulation {
     VehicleSpec spec;
     std::vector<SubAircraftSim> sub_aircraft;
     VehicleOutput output;
-    std::unique_ptr<DrydenTurbulence> turbulence;  // when the air is turbulent
+    std::unique_ptr<DrydenTurbulence> turbulence;        // when the air is turbulent
+    Eigen::Vector3d gust_mps = Eigen::Vector3d::Zero();  // its last sample: u, v, w (ApplyAir)
   };
 
   struct LatchSim {
@@ -296,7 +313,9 @@ class Simulation {
                      Eigen::Vector3d* w_WS_S_radps, Eigen::Vector3d* alpha_WS_S_radps2);
   void ApplyAir(VehicleSim& vehicle);
   void ApplyRotorAir(VehicleSim& vehicle, int s);  // ground effect and the rotors' drag
-  void ApplyDownwash(const VehicleSim& vehicle, int s);
+  // every rotor's wake, evaluated at kWakeRate_hz (physics/simulation.cc) and applied at every step
+  void ApplyDownwash(VehicleSim& vehicle, int s);
+  void EvaluateWakes(VehicleSim& vehicle, int s);
   void AddAirForce(int body, const Eigen::Vector3d& force_W_N, const Eigen::Vector3d& p_W_m);
   void ComputeOutputs(int v);
   bool Close(LatchSim& latch);
@@ -305,10 +324,18 @@ class Simulation {
   MultibodyWorld world_;
   Eigen::Vector3d gravity_W_;
   AirConfig air_;
-  double ground_z_m_ = 0.0;  // the turbulence's height reference (z = 0 without a ground)
+  double ground_z_m_ = 0.0;            // the turbulence's height reference (z = 0 without a ground)
   FlightControllerEstimate estimate_;  // with the aiding's periods in steps
   int64_t velocity_every_steps_ = 1;
   int64_t heading_every_steps_ = 1;
+  int imu_integration_steps_ = 1;
+  int64_t wake_every_steps_ = 1;
+  int64_t turbulence_every_steps_ = 1;
+  // which of the models slower than the physics are due in this step: four divisions a step, not one per
+  // model and sub-aircraft (a 64-bit division costs tens of cycles)
+  struct Due {
+    bool turbulence = true, wakes = true, velocity = true, heading = true;
+  } due_;
   std::vector<std::unique_ptr<VehicleSim>> vehicles_;
   std::vector<int> vehicle_of_body_;  // -1: not part of a vehicle
   // what a rotor's wake can push: movable bodies with collision shapes, with their bounding spheres as of

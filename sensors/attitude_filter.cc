@@ -25,7 +25,7 @@ ComplementaryAttitudeFilter::ComplementaryAttitudeFilter(const ComplementaryFilt
 
 void ComplementaryAttitudeFilter::Initialize(const Eigen::Quaterniond& q_WB,
                                              const Eigen::Vector3d& gyroscope_bias_B_radps) {
-  q_WB_ = q_WB.normalized();
+  q_WB_ = q_reported_WB_ = q_WB.normalized();
   gyroscope_bias_B_radps_ = gyroscope_bias_B_radps;
   a_W_mps2_.setZero();
   previous_velocity_.reset();
@@ -62,11 +62,25 @@ void ComplementaryAttitudeFilter::LearnBias(const Eigen::Vector3d& correction_B_
                                 .cwiseMin(gains_.max_gyroscope_bias_radps);
 }
 
+namespace {
+
 // q ⊗ (1, θ/2) normalised turns by 2 atan(|θ|/2): θ³/12 short, 1e-9 rad for 3 rad/s over 1 ms
+Eigen::Quaterniond Turned(const Eigen::Quaterniond& q, const Eigen::Vector3d& angle_rad) {
+  return (q * Eigen::Quaterniond(1.0, 0.5 * angle_rad.x(), 0.5 * angle_rad.y(), 0.5 * angle_rad.z()))
+      .normalized();
+}
+
+}  // namespace
+
 void ComplementaryAttitudeFilter::Turn(const Eigen::Vector3d& angle_B_rad) {
-  q_WB_ =
-      (q_WB_ * Eigen::Quaterniond(1.0, 0.5 * angle_B_rad.x(), 0.5 * angle_B_rad.y(), 0.5 * angle_B_rad.z()))
-          .normalized();
+  q_WB_ = Turned(q_WB_, angle_B_rad);
+  q_reported_WB_ = Turned(q_reported_WB_, angle_B_rad);
+}
+
+void ComplementaryAttitudeFilter::Propagate(const Eigen::Vector3d& w_B_radps, double dt_s) {
+  if (!initialized_)
+    throw std::logic_error("ComplementaryAttitudeFilter: Initialize before the first propagation");
+  q_reported_WB_ = Turned(q_reported_WB_, dt_s * (w_B_radps - gyroscope_bias_B_radps_));
 }
 
 void ComplementaryAttitudeFilter::Update(const Eigen::Vector3d& w_B_radps, const Eigen::Vector3d& f_B_mps2,
@@ -87,7 +101,7 @@ void ComplementaryAttitudeFilter::Update(const Eigen::Vector3d& w_B_radps, const
         gains_.accelerometer_weight_per_s * dt_s * (gravity_B_mps2 / gravity_norm_mps2).cross(down_B);
   }
   LearnBias(correction_B_rad);
-  Turn(correction_B_rad + dt_s * (w_B_radps - gyroscope_bias_B_radps_));
+  q_WB_ = q_reported_WB_ = Turned(q_WB_, correction_B_rad + dt_s * (w_B_radps - gyroscope_bias_B_radps_));
 }
 
 }  // namespace iapsim::sensors

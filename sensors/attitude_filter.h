@@ -9,7 +9,7 @@
 // accelerometer less the motion acceleration differenced from an aiding velocity (PX4's ATT_ACC_COMP):
 // without that, a multirotor's accelerometer reads its thrust axis, not gravity, and the filter would level a
 // vehicle that is tilted to hold a lateral force. Unlike AttitudeEstimator (the sensors process's EKF, 9
-// states), it costs a few dozen operations per sample, what a flight controller's 1 kHz loop can afford.
+// states), it costs a few dozen operations per sample or interval.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -44,22 +44,29 @@ class ComplementaryAttitudeFilter {
   /// by half an interval while the body yaws: 0.6° at 0.2 rad/s and 10 Hz.)
   void UpdateHeading(double yaw_rad, double interval_s);
 
-  /// One gyroscope (rad/s) and accelerometer (specific force, m/s²) reading in B, dt_s after the previous.
+  /// One gyroscope (rad/s) and accelerometer (specific force, m/s²) reading in B, dt_s after the previous:
+  /// a sample, or the means over an integration interval of dt_s (PX4's IMU_INTEG_RATE).
   void Update(const Eigen::Vector3d& w_B_radps, const Eigen::Vector3d& f_B_mps2, double dt_s);
+  /// Between two Updates on interval means: the attitude reported turns by each gyroscope sample less the
+  /// bias (a predictor at the gyroscope's rate); the next Update starts from the last one's estimate, the
+  /// samples being in its interval's mean.
+  void Propagate(const Eigen::Vector3d& w_B_radps, double dt_s);
 
-  const Eigen::Quaterniond& q_WB() const { return q_WB_; }
+  /// The attitude: the last Update's, turned by the samples Propagate took since.
+  const Eigen::Quaterniond& q_WB() const { return q_reported_WB_; }
   const Eigen::Vector3d& gyroscope_bias_B_radps() const { return gyroscope_bias_B_radps_; }
   const Eigen::Vector3d& motion_acceleration_W_mps2() const { return a_W_mps2_; }
 
  private:
   // the bias integrates −k_b ω_c dt while the body turns slower than bias_learning_max_rate_radps
   void LearnBias(const Eigen::Vector3d& correction_B_rad);
-  void Turn(const Eigen::Vector3d& angle_B_rad);
+  void Turn(const Eigen::Vector3d& angle_B_rad);  // the estimate, and the attitude reported with it
 
   ComplementaryFilterGains gains_;
   double gravity_mps2_;
   bool initialized_ = false;
-  Eigen::Quaterniond q_WB_ = Eigen::Quaterniond::Identity();
+  Eigen::Quaterniond q_WB_ = Eigen::Quaterniond::Identity();           ///< as of the last Update
+  Eigen::Quaterniond q_reported_WB_ = Eigen::Quaterniond::Identity();  ///< q_WB_ propagated since
   Eigen::Vector3d gyroscope_bias_B_radps_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d a_W_mps2_ = Eigen::Vector3d::Zero();
   std::optional<std::pair<Eigen::Vector3d, double>> previous_velocity_;  ///< v_W (m/s), t (s)

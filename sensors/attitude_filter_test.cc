@@ -156,5 +156,34 @@ TEST(ComplementaryAttitudeFilter, RejectsNegativeWeightsAndUpdatesBeforeInitiali
   EXPECT_THROW(filter.Update(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), kDt), std::logic_error);
 }
 
+// Between updates on PX4's 5 ms interval means, the attitude reported turns by each 1 ms gyroscope sample
+// less the bias (the rotation of the rate over the samples so far, to the turn's θ³/12), while the estimate
+// the next update starts from is the last update's: two filters, one propagated between its updates and one
+// not, report the same attitude after every update, to the bit.
+TEST(ComplementaryAttitudeFilter, PropagatesItsAttitudeBetweenUpdatesAndUpdatesFromTheLastEstimate) {
+  const ComplementaryFilterGains gains;
+  ComplementaryAttitudeFilter propagated(gains, kG), updated(gains, kG);
+  const Eigen::Quaterniond start = FromRollPitchYaw(2.0 * kDeg, -1.0 * kDeg, 0.4);
+  const Eigen::Vector3d bias_B_radps(0.002, -0.001, 0.003), w_B_radps(0.3, -0.2, 0.5);
+  propagated.Initialize(start, bias_B_radps);
+  updated.Initialize(start, bias_B_radps);
+  const Eigen::Vector3d f_B_mps2 = SpecificForce_B(start, Eigen::Vector3d::Zero());
+  for (int interval = 0; interval < 20; ++interval) {
+    const Eigen::Quaterniond from = propagated.q_WB();
+    for (int k = 1; k < 5; ++k) {
+      propagated.Propagate(w_B_radps, kDt);
+      const Eigen::Vector3d turn = k * kDt * (w_B_radps - bias_B_radps);
+      const Eigen::Quaterniond expected =
+          from * Eigen::Quaterniond(Eigen::AngleAxisd(turn.norm(), turn.normalized()));
+      ASSERT_LT(AngleBetween_rad(propagated.q_WB(), expected), 1e-9) << interval << " " << k;
+      ASSERT_EQ(updated.q_WB().coeffs(), from.coeffs());  // the other only at its updates
+    }
+    propagated.Update(w_B_radps, f_B_mps2, 5 * kDt);
+    updated.Update(w_B_radps, f_B_mps2, 5 * kDt);
+    ASSERT_EQ(propagated.q_WB().coeffs(), updated.q_WB().coeffs()) << interval;
+  }
+  EXPECT_THROW(ComplementaryAttitudeFilter(gains, kG).Propagate(w_B_radps, kDt), std::logic_error);
+}
+
 }  // namespace
 }  // namespace iapsim::sensors

@@ -54,11 +54,25 @@ ImuSample ImuModel::Sample(const BodyKinematics& truth, double dt_s) {
 
 Eigen::Vector3d ImuModel::SampleGyroscope(const Eigen::Vector3d& w_WB_B_radps, double dt_s) {
   if (!(dt_s > 0.0)) throw std::invalid_argument("ImuModel::SampleGyroscope: dt_s must be positive");
-  const ImuNoise& n = config_.noise;
-  const double sqrt_dt = std::sqrt(dt_s);
-  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_dt * Gaussian3(random_);
+  gyroscope_bias_radps_ += config_.noise.gyroscope_random_walk * std::sqrt(dt_s) * Gaussian3(random_);
+  return SampleGyroscopeInInterval(w_WB_B_radps, dt_s);
+}
+
+Eigen::Vector3d ImuModel::SampleGyroscopeInInterval(const Eigen::Vector3d& w_WB_B_radps, double dt_s) {
+  if (!(dt_s > 0.0))
+    throw std::invalid_argument("ImuModel::SampleGyroscopeInInterval: dt_s must be positive");
   return config_.q_BI.conjugate() * w_WB_B_radps + gyroscope_bias_radps_ +
-         n.gyroscope_noise_density / sqrt_dt * Gaussian3(random_);
+         config_.noise.gyroscope_noise_density / std::sqrt(dt_s) * Gaussian3(random_);
+}
+
+Eigen::Vector3d ImuModel::EndInterval(const Eigen::Vector3d& f_B_mps2, double interval_s) {
+  if (!(interval_s > 0.0)) throw std::invalid_argument("ImuModel::EndInterval: interval_s must be positive");
+  const ImuNoise& n = config_.noise;
+  const double sqrt_interval = std::sqrt(interval_s);
+  gyroscope_bias_radps_ += n.gyroscope_random_walk * sqrt_interval * Gaussian3(random_);
+  accelerometer_bias_mps2_ += n.accelerometer_random_walk * sqrt_interval * Gaussian3(random_);
+  return config_.q_BI.conjugate() * f_B_mps2 + accelerometer_bias_mps2_ +
+         n.accelerometer_noise_density / sqrt_interval * Gaussian3(random_);
 }
 
 }  // namespace iapsim::sensors

@@ -73,6 +73,17 @@ class ImuModel {
   /// left untouched. `w_WB_B_radps` is B's angular velocity in B; the reading is in I.
   Eigen::Vector3d SampleGyroscope(const Eigen::Vector3d& w_WB_B_radps, double dt_s);
 
+  /// A flight controller's IMU, whose readings its estimator takes as means over integration intervals (a
+  /// delta velocity and a delta angle over each, divided by it, as PX4's vehicle_imu integrates at
+  /// IMU_INTEG_RATE) while its rate loop takes every gyroscope reading: within an interval, a gyroscope
+  /// reading with its white noise on the bias as it stands;
+  Eigen::Vector3d SampleGyroscopeInInterval(const Eigen::Vector3d& w_WB_B_radps, double dt_s);
+  /// at the interval's end, both biases take the interval's random-walk step (its variance exact, the
+  /// biases held within it: they drift over minutes), and the accelerometer's reading is the mean of its
+  /// readings over the interval, whose white noise has σ/√T. `f_B_mps2` is the true specific force at I
+  /// averaged over the interval, in B; the reading is in I.
+  Eigen::Vector3d EndInterval(const Eigen::Vector3d& f_B_mps2, double interval_s);
+
   /// The biases in the last sample (in I).
   const Eigen::Vector3d& gyroscope_bias_radps() const { return gyroscope_bias_radps_; }
   const Eigen::Vector3d& accelerometer_bias_mps2() const { return accelerometer_bias_mps2_; }

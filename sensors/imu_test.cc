@@ -210,6 +210,65 @@ TEST(Imu, TheAccelerometerBiasStartsWithItsSpreadAndWalksByItsDensity) {
   EXPECT_NEAR(std::sqrt(second2 / (3 * instances)), 0.02, 0.02 * 0.04);
 }
 
+// A flight controller's IMU in PX4's 5 ms integration intervals: one mean accelerometer reading has the
+// spread of the mean of the five 1 ms readings it stands for (density / √T, not / √dt), on the mounted axes;
+// the gyroscope's readings within the interval have the per-sample spread of SampleGyroscope; and both biases
+// walk by their densities over the intervals, the √t law of sample-by-sample walking.
+TEST(Imu, AnIntegrationIntervalsMeansHaveTheSpreadOfTheirSamplesAndTheBiasesWalkAlike) {
+  ImuConfig config;  // Table VI
+  config.q_BI = Eigen::AngleAxisd(M_PI / 2.0, Eigen::Vector3d::UnitZ());
+  config.noise.accelerometer_random_walk = 0.0;
+  config.noise.gyroscope_random_walk = 0.0;
+  ImuModel interval_imu(config, 5), sample_imu(config, 6);
+  const int n = 40000;
+  const double interval = 0.005, dt = 0.001;
+  const Eigen::Vector3d f_B(0.3, -0.1, 9.81), f_I = config.q_BI.conjugate() * f_B;  // (−0.1, −0.3, 9.81)
+  const Eigen::Vector3d w_B(0.3, -0.1, 0.2), w_I = config.q_BI.conjugate() * w_B;
+  const BodyKinematics hover;  // level at rest: f = −g along z
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), sum2 = Eigen::Vector3d::Zero(),
+                  sample_sum2 = Eigen::Vector3d::Zero(), gyro_sum2 = Eigen::Vector3d::Zero();
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < 5; ++k) {
+      gyro_sum2 += (interval_imu.SampleGyroscopeInInterval(w_B, dt) - w_I).cwiseAbs2() / 5.0;
+    }
+    const Eigen::Vector3d error = interval_imu.EndInterval(f_B, interval) - f_I;
+    sum += error;
+    sum2 += error.cwiseAbs2();
+    Eigen::Vector3d sample_mean = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 5; ++k) sample_mean += sample_imu.Sample(hover, dt).f_I_mps2 / 5.0;
+    sample_sum2 += (sample_mean - config.q_BI.conjugate() * Eigen::Vector3d(0.0, 0.0, -kGravity)).cwiseAbs2();
+  }
+  const double sigma = config.noise.accelerometer_noise_density / std::sqrt(interval);
+  const double gyro_sigma = config.noise.gyroscope_noise_density / std::sqrt(dt);
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(sum[axis] / n, 0.0, 4.0 * sigma / std::sqrt(n));
+    EXPECT_NEAR(std::sqrt(sum2[axis] / n), sigma, 0.03 * sigma);
+    EXPECT_NEAR(std::sqrt(sample_sum2[axis] / n), sigma, 0.03 * sigma);
+    EXPECT_NEAR(std::sqrt(gyro_sum2[axis] / n), gyro_sigma, 0.02 * gyro_sigma);
+  }
+
+  ImuConfig walking = NoiseFree();
+  walking.noise.accelerometer_random_walk = 0.02;  // m/s³/√Hz
+  walking.noise.gyroscope_random_walk = 0.01;      // rad/s²/√Hz
+  double accelerometer2 = 0.0, gyroscope2 = 0.0;
+  const int instances = 3000;
+  for (int seed = 0; seed < instances; ++seed) {
+    ImuModel imu(walking, seed);
+    for (int i = 0; i < 200; ++i) {  // 1 s
+      for (int k = 0; k < 5; ++k) {
+        ASSERT_EQ(imu.SampleGyroscopeInInterval(Eigen::Vector3d::Zero(), dt), imu.gyroscope_bias_radps());
+      }
+      imu.EndInterval(Eigen::Vector3d::Zero(), interval);
+    }
+    accelerometer2 += imu.accelerometer_bias_mps2().squaredNorm();
+    gyroscope2 += imu.gyroscope_bias_radps().squaredNorm();
+  }
+  EXPECT_NEAR(std::sqrt(accelerometer2 / (3 * instances)), 0.02, 0.02 * 0.04);
+  EXPECT_NEAR(std::sqrt(gyroscope2 / (3 * instances)), 0.01, 0.01 * 0.04);
+  EXPECT_THROW(ImuModel(config, 1).EndInterval(f_B, 0.0), std::invalid_argument);
+  EXPECT_THROW(ImuModel(config, 1).SampleGyroscopeInInterval(w_B, 0.0), std::invalid_argument);
+}
+
 TEST(Imu, SameSeedSameSamplesOtherSeedOthers) {
   const ImuConfig config;
   ImuModel a(config, 42), b(config, 42), c(config, 43);
