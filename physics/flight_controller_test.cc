@@ -215,7 +215,9 @@ TEST(FlightControllerSensing, AFlightControllerOnItsEstimateBelievesTheTruthUpTo
   for (const std::string& wrong :
        {std::string("flight_controller_sensing: gyro\nflight_controller_estimate: {}\n"),
         std::string(
-            "flight_controller_sensing: estimate\nflight_controller_estimate: {heading_rate_hz: 0}\n")}) {
+            "flight_controller_sensing: estimate\nflight_controller_estimate: {heading_rate_hz: 0}\n"),
+        std::string("flight_controller_sensing: estimate\n"
+                    "flight_controller_estimate: {imu_integration_rate_hz: 2000}\n")}) {
     bridge::YamlMap params(YAML::Load(ThreeStarParams() + wrong), "test.yaml");
     EXPECT_THROW(ReadPhysicsConfig(params, "test.yaml", 0.001), bridge::ConfigError) << wrong;
   }

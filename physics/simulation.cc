@@ -24,7 +24,8 @@ constexpr double kTurbulenceRate_hz = 200.0;
 
 // a rate's period in whole physics steps, at least one
 int64_t EveryStepsAt(double rate_hz, double step_s) {
-  if (!(rate_hz > 0.0)) throw std::invalid_argument("a flight controller's aiding rate must be positive");
+  if (!(rate_hz > 0.0))
+    throw std::invalid_argument("a rate of the flight controllers' estimates must be positive");
   return std::max<int64_t>(1, std::llround(1.0 / (rate_hz * step_s)));
 }
 
