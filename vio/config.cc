@@ -27,6 +27,7 @@ void ReadEstimator(bridge::YamlMap& map, EstimatorOptions* o) {
   map.OptionalInRange("pixel_sigma_px", &o->pixel_sigma_px, 1e-3, 100.0);
   map.OptionalInRange("robust_loss_sigmas", &o->robust_loss_sigmas, 1e-3, 1e3);
   map.OptionalInRange("max_iterations", &o->max_iterations, 1, 1000);
+  map.OptionalInRange("function_tolerance", &o->function_tolerance, 1e-12, 0.1);
   map.OptionalInRange("min_depth_m", &o->min_depth_m, 1e-3, 1e3);
   map.OptionalInRange("max_depth_m", &o->max_depth_m, o->min_depth_m, 1e6);
   map.OptionalInRange("outlier_px", &o->outlier_px, 0.01, 1e3);

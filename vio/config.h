@@ -8,8 +8,8 @@
 //   tracker:   {max_features, min_distance_px, corner_quality, klt_window_px, pyramid_levels,
 //               forward_backward_px, ransac_threshold_px, stereo_row_tolerance_px,
 //               keyframe_parallax_px_at_460, keyframe_min_tracked}
-//   estimator: {window_keyframes, pixel_sigma_px, robust_loss_sigmas, max_iterations, min_depth_m,
-//               max_depth_m, outlier_px, range_huber_sigmas, min_features}
+//   estimator: {window_keyframes, pixel_sigma_px, robust_loss_sigmas, max_iterations, function_tolerance,
+//               min_depth_m, max_depth_m, outlier_px, range_huber_sigmas, min_features}
 //   uwb:       {sigma_m,      range sigma (default: the sensor's own, from the scenario)
 //               anchors}      the names of the anchors to range to (default: all of the scenario's)
 //   virpo:     {sigma_link_m, sigma_rate_radps, sigma_attitude_rad, drift_prior_position_m,

@@ -38,10 +38,12 @@ TEST(VioConfigTest, AFileAndOverridesSetTheirKeys) {
   const std::string path = ::testing::TempDir() + "vio_config_test.yaml";
   std::ofstream(path) << "tracker: {max_features: 200}\nestimator:\n  window_keyframes: 8\nvirpo:\n"
                          "  sigma_attitude_rad: 0.04\n";
-  const VioConfig config = LoadVioConfig(
-      path, {"uwb.sigma_m=0.1", "virpo.sigma_attitude_rad=0.03", "uwb.anchors=[anchor1, anchor3]"});
+  const VioConfig config =
+      LoadVioConfig(path, {"uwb.sigma_m=0.1", "virpo.sigma_attitude_rad=0.03",
+                           "uwb.anchors=[anchor1, anchor3]", "estimator.function_tolerance=1e-6"});
   EXPECT_EQ(config.tracker.max_features, 200);
   EXPECT_EQ(config.estimator.window_keyframes, 8);
+  EXPECT_DOUBLE_EQ(config.estimator.function_tolerance, 1e-6);  // Ceres's default, against ours of 1e-5
   EXPECT_DOUBLE_EQ(config.estimator.physical.sigma_attitude_rad, 0.03);  // the override wins
   ASSERT_TRUE(config.range_sigma_m.has_value());
   EXPECT_DOUBLE_EQ(*config.range_sigma_m, 0.1);

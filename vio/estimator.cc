@@ -78,7 +78,7 @@ struct PendingRange {
 // A range attached to a keyframe through the IMU from that keyframe to the range's time.
 struct RangeMeasurement {
   std::uint64_t serial = 0;
-  std::shared_ptr<ImuPreintegration> since_keyframe;
+  RangeFactor::SinceKeyframe since_keyframe;
   PendingRange range;
 };
 
@@ -200,9 +200,13 @@ struct Estimator::Impl {
         ++statistics.ranges_dropped;
         continue;
       }
-      auto pre = std::make_shared<ImuPreintegration>(*since_keyframe);
-      if (range.t_s > last_frame_t_s) IntegrateTo(pre.get(), last_frame_t_s, range.t_s);
-      ranges.push_back({window.back()->serial, std::move(pre), range});
+      if (range.t_s > last_frame_t_s) {
+        ImuPreintegration pre = *since_keyframe;
+        IntegrateTo(&pre, last_frame_t_s, range.t_s);
+        ranges.push_back({window.back()->serial, RangeFactor::SinceKeyframe(pre), range});
+      } else {
+        ranges.push_back({window.back()->serial, RangeFactor::SinceKeyframe(*since_keyframe), range});
+      }
       ++statistics.ranges_used;
     }
   }
@@ -440,6 +444,7 @@ struct Estimator::Impl {
     solver.trust_region_strategy_type = ceres::DOGLEG;
     solver.max_num_iterations = options.max_iterations;
     solver.num_threads = 1;
+    solver.function_tolerance = options.function_tolerance;
     solver.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
     ceres::Solve(solver, &problem, &summary);

@@ -215,10 +215,18 @@ bool StereoFactor::Evaluate(double const* const* parameters, double* residuals, 
   return true;
 }
 
-RangeFactor::RangeFactor(std::shared_ptr<const ImuPreintegration> since_keyframe,
-                         const Eigen::Vector3d& p_WA_m, double range_m, double sigma_m,
-                         const Eigen::Vector3d& p_IT_m, const Eigen::Vector3d& g_W_mps2)
-    : since_keyframe_(std::move(since_keyframe)),
+RangeFactor::SinceKeyframe::SinceKeyframe(const ImuPreintegration& preintegration)
+    : dt_s(preintegration.dt_s()),
+      linearisation_biases(preintegration.linearisation_biases()),
+      delta_R(preintegration.delta().delta_R),
+      delta_p_m(preintegration.delta().delta_p_m),
+      dR_dbg(preintegration.jacobian_gyroscope_bias().topRows<3>()),
+      dp_dbg(preintegration.jacobian_gyroscope_bias().bottomRows<3>()),
+      dp_dba(preintegration.jacobian_accelerometer_bias().bottomRows<3>()) {}
+
+RangeFactor::RangeFactor(const SinceKeyframe& since_keyframe, const Eigen::Vector3d& p_WA_m, double range_m,
+                         double sigma_m, const Eigen::Vector3d& p_IT_m, const Eigen::Vector3d& g_W_mps2)
+    : since_keyframe_(since_keyframe),
       p_WA_m_(p_WA_m),
       range_m_(range_m),
       sigma_m_(sigma_m),
@@ -228,13 +236,18 @@ RangeFactor::RangeFactor(std::shared_ptr<const ImuPreintegration> since_keyframe
 }
 
 bool RangeFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
-  const ImuPreintegration& pre = *since_keyframe_;
+  const SinceKeyframe& pre = since_keyframe_;
   const Eigen::Matrix3d R_k = Rotation(parameters[0]).toRotationMatrix();
   const Eigen::Vector3d v_k(parameters[1]);
-  const ImuBiases biases{Eigen::Vector3d(parameters[1] + 3), Eigen::Vector3d(parameters[1] + 6)};
-  const ImuDelta d = pre.Corrected(biases);
-  const double dt = pre.dt_s();
-  const Eigen::Vector3d lever_k = d.delta_p_m + d.delta_R * p_IT_m_;  // the tag from p_k, in I at t_k
+  // The preintegration's first-order bias correction (ImuPreintegration::Corrected), of ΔR and Δp only.
+  const Eigen::Vector3d d_bg = Eigen::Vector3d(parameters[1] + 3) - pre.linearisation_biases.gyroscope_radps;
+  const Eigen::Vector3d d_ba =
+      Eigen::Vector3d(parameters[1] + 6) - pre.linearisation_biases.accelerometer_mps2;
+  const Eigen::Vector3d dR_correction = pre.dR_dbg * d_bg;
+  const Eigen::Matrix3d delta_R = pre.delta_R * Exp(dR_correction);
+  const Eigen::Vector3d delta_p = pre.delta_p_m + pre.dp_dbg * d_bg + pre.dp_dba * d_ba;
+  const double dt = pre.dt_s;
+  const Eigen::Vector3d lever_k = delta_p + delta_R * p_IT_m_;  // the tag from p_k, in I at t_k
   const Eigen::Vector3d p_T = Position(parameters[0]) + v_k * dt + 0.5 * g_W_mps2_ * dt * dt + R_k * lever_k;
   const Eigen::Vector3d to_anchor = p_T - p_WA_m_;
   const double distance = to_anchor.norm();
@@ -242,24 +255,21 @@ bool RangeFactor::Evaluate(double const* const* parameters, double* residuals, d
   if (jacobians == nullptr) return true;
   // d r / d p_T, then the chain through p_T's terms (right perturbations, as in ImuFactor).
   const Eigen::RowVector3d dr_dp = to_anchor.transpose() / (std::max(distance, 1e-9) * sigma_m_);
+  const Eigen::RowVector3d dr_dp_k = dr_dp * R_k;
   if (jacobians[0] != nullptr) {
     RowMajorMap<1, kPoseSize> J(jacobians[0]);
     J.setZero();
     J.leftCols<3>() = dr_dp;
-    J.middleCols<3>(3) = dr_dp * R_k * -Skew(lever_k);
+    J.middleCols<3>(3) = dr_dp_k * -Skew(lever_k);
   }
   if (jacobians[1] != nullptr) {
-    const Matrix93d& J_bg = pre.jacobian_gyroscope_bias();
-    const Matrix93d& J_ba = pre.jacobian_accelerometer_bias();
-    const Eigen::Vector3d d_bg = biases.gyroscope_radps - pre.linearisation_biases().gyroscope_radps;
-    const Eigen::Matrix3d J_R_bg = J_bg.topRows<3>();
     // ΔR(b) p_IT = ΔR̄ Exp(J_R_bg δb_g) p_IT: its derivative is −ΔR(b) [p_IT]× J_r(J_R_bg δb_g) J_R_bg.
     const Eigen::Matrix3d d_lever_d_bg =
-        J_bg.bottomRows<3>() - d.delta_R * Skew(p_IT_m_) * RightJacobian(J_R_bg * d_bg) * J_R_bg;
+        pre.dp_dbg - delta_R * Skew(p_IT_m_) * RightJacobian(dR_correction) * pre.dR_dbg;
     RowMajorMap<1, kSpeedBiasSize> J(jacobians[1]);
     J.leftCols<3>() = dr_dp * dt;
-    J.middleCols<3>(3) = dr_dp * R_k * d_lever_d_bg;
-    J.rightCols<3>() = dr_dp * R_k * J_ba.bottomRows<3>();
+    J.middleCols<3>(3) = dr_dp_k * d_lever_d_bg;
+    J.rightCols<3>() = dr_dp_k * pre.dp_dba;
   }
   return true;
 }

@@ -162,12 +162,13 @@ TEST(FactorsTest, RangeFactorJacobiansMatchNumericDifferentiation) {
   const Eigen::Vector3d p_IT(0.02, 0.1, -0.05), p_WA(4.0, -3.0, -1.0);
   const NavState k = KnownMotion::State(0.3), r = KnownMotion::State(0.42);
   const double range = (r.p_WI_m + r.q_WI * p_IT - p_WA).norm() + 0.3;
-  const RangeFactor factor(since_keyframe, p_WA, range, 0.1, p_IT, kGravity_W);
+  const RangeFactor factor(RangeFactor::SinceKeyframe(*since_keyframe), p_WA, range, 0.1, p_IT, kGravity_W);
   const std::vector<double> sb{
       k.v_WI_W_mps.x(), k.v_WI_W_mps.y(), k.v_WI_W_mps.z(), 0.013, -0.018, 0.01, 0.12, -0.08, 0.17};
   ExpectJacobiansMatchNumericDifferentiation(factor, {PoseBlock(k.p_WI_m, k.q_WI), sb}, {true, false});
   // Without biases the preintegrated prediction is the motion's own tag position: the residual is the 0.3 m.
-  const RangeFactor unbiased(Preintegrate(0.3, 0.42, {}), p_WA, range, 0.1, p_IT, kGravity_W);
+  const RangeFactor unbiased(RangeFactor::SinceKeyframe(*Preintegrate(0.3, 0.42, {})), p_WA, range, 0.1, p_IT,
+                             kGravity_W);
   std::vector<double> zero_sb{k.v_WI_W_mps.x(), k.v_WI_W_mps.y(), k.v_WI_W_mps.z(), 0, 0, 0, 0, 0, 0};
   const std::vector<double> pose = PoseBlock(k.p_WI_m, k.q_WI);
   const double* unbiased_blocks[] = {pose.data(), zero_sb.data()};
