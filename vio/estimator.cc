@@ -200,13 +200,9 @@ struct Estimator::Impl {
         ++statistics.ranges_dropped;
         continue;
       }
-      if (range.t_s > last_frame_t_s) {
-        ImuPreintegration pre = *since_keyframe;
-        IntegrateTo(&pre, last_frame_t_s, range.t_s);
-        ranges.push_back({window.back()->serial, RangeFactor::SinceKeyframe(pre), range});
-      } else {
-        ranges.push_back({window.back()->serial, RangeFactor::SinceKeyframe(*since_keyframe), range});
-      }
+      ImuPreintegration to_range = *since_keyframe;
+      if (range.t_s > last_frame_t_s) IntegrateTo(&to_range, last_frame_t_s, range.t_s);
+      ranges.push_back({window.back()->serial, RangeFactor::SinceKeyframe(to_range), range});
       ++statistics.ranges_used;
     }
   }
