@@ -40,6 +40,7 @@ void ReadPhysical(bridge::YamlMap& map, PhysicalConstraintOptions* o) {
   map.OptionalInRange("sigma_link_m", &o->sigma_link_m, 1e-6, kInfinity);
   map.OptionalInRange("sigma_rate_radps", &o->sigma_rate_radps, 1e-6, kInfinity);
   map.OptionalInRange("sigma_attitude_rad", &o->sigma_attitude_rad, 1e-6, kInfinity);
+  map.OptionalInRange("attitude_correlation_s", &o->attitude_correlation_s, 0.0, 1e3);
   map.OptionalInRange("drift_prior_position_m", &o->drift_prior_position_m, 1e-9, kInfinity);
   map.OptionalInRange("drift_prior_yaw_rad", &o->drift_prior_yaw_rad, 1e-9, kInfinity);
   map.OptionalInRange("drift_step_position_m", &o->drift_step_position_m, 1e-9, kInfinity);

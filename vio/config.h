@@ -12,9 +12,9 @@
 //               min_depth_m, max_depth_m, outlier_px, range_huber_sigmas, min_features}
 //   uwb:       {sigma_m,      range sigma (default: the sensor's own, from the scenario)
 //               anchors}      the names of the anchors to range to (default: all of the scenario's)
-//   virpo:     {sigma_link_m, sigma_rate_radps, sigma_attitude_rad, drift_prior_position_m,
-//               drift_prior_yaw_rad, drift_step_position_m, drift_step_yaw_rad, huber_sigmas,
-//               max_peer_extrapolation_s}
+//   virpo:     {sigma_link_m, sigma_rate_radps, sigma_attitude_rad, attitude_correlation_s,
+//               drift_prior_position_m, drift_prior_yaw_rad, drift_step_position_m,
+//               drift_step_yaw_rad, huber_sigmas, max_peer_extrapolation_s}
 
 #include <optional>
 #include <string>

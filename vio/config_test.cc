@@ -28,6 +28,7 @@ TEST(VioConfigTest, NoFileGivesTheDefaultsOfTableIX) {
   EXPECT_DOUBLE_EQ(p.sigma_link_m, 0.04);
   EXPECT_DOUBLE_EQ(p.sigma_rate_radps, 0.1);
   EXPECT_DOUBLE_EQ(p.sigma_attitude_rad, 0.01);
+  EXPECT_DOUBLE_EQ(p.attitude_correlation_s, 0.0);  // white, as the seed weights r_kq
   EXPECT_DOUBLE_EQ(p.drift_prior_position_m, 0.05);
   EXPECT_DOUBLE_EQ(p.drift_prior_yaw_rad, 0.1);
   EXPECT_DOUBLE_EQ(p.drift_step_position_m, 0.01);
@@ -38,13 +39,14 @@ TEST(VioConfigTest, AFileAndOverridesSetTheirKeys) {
   const std::string path = ::testing::TempDir() + "vio_config_test.yaml";
   std::ofstream(path) << "tracker: {max_features: 200}\nestimator:\n  window_keyframes: 8\nvirpo:\n"
                          "  sigma_attitude_rad: 0.04\n";
-  const VioConfig config =
-      LoadVioConfig(path, {"uwb.sigma_m=0.1", "virpo.sigma_attitude_rad=0.03",
-                           "uwb.anchors=[anchor1, anchor3]", "estimator.function_tolerance=1e-6"});
+  const VioConfig config = LoadVioConfig(
+      path, {"uwb.sigma_m=0.1", "virpo.sigma_attitude_rad=0.03", "uwb.anchors=[anchor1, anchor3]",
+             "estimator.function_tolerance=1e-6", "virpo.attitude_correlation_s=1.5"});
   EXPECT_EQ(config.tracker.max_features, 200);
   EXPECT_EQ(config.estimator.window_keyframes, 8);
   EXPECT_DOUBLE_EQ(config.estimator.function_tolerance, 1e-6);  // Ceres's default, against ours of 1e-5
   EXPECT_DOUBLE_EQ(config.estimator.physical.sigma_attitude_rad, 0.03);  // the override wins
+  EXPECT_DOUBLE_EQ(config.estimator.physical.attitude_correlation_s, 1.5);
   ASSERT_TRUE(config.range_sigma_m.has_value());
   EXPECT_DOUBLE_EQ(*config.range_sigma_m, 0.1);
   EXPECT_EQ(config.anchors, (std::vector<std::string>{"anchor1", "anchor3"}));

@@ -298,6 +298,16 @@ struct Estimator::Impl {
     }
   }
 
+  // r_kq's sigma for window frame i (PhysicalConstraintOptions::attitude_correlation_s): the slice it
+  // stands for reaches back to the frame before it; the oldest one's, forward to the next.
+  double AttitudeSigma_rad(std::size_t i) const {
+    const PhysicalConstraintOptions& physical = options.physical;
+    if (physical.attitude_correlation_s <= 0.0 || window.size() < 2) return physical.sigma_attitude_rad;
+    const double slice_s = i == 0 ? window[1]->t_s - window[0]->t_s : window[i]->t_s - window[i - 1]->t_s;
+    return physical.sigma_attitude_rad *
+           std::sqrt(std::max(1.0, 2.0 * physical.attitude_correlation_s / std::max(slice_s, 1e-6)));
+  }
+
   // Every residual of the window; with `oldest_only`, those that touch the oldest frame (for
   // marginalisation).
   std::vector<Residual> Residuals(bool oldest_only) {
@@ -330,12 +340,12 @@ struct Estimator::Impl {
       if (oldest_only && track.observations.begin()->first != oldest.serial) continue;
       VisualResiduals(track, frames, &residuals);
     }
-    for (const auto& frame : window) {
-      if (!frame->attitude_WI || (oldest_only && frame.get() != &oldest)) continue;
-      residuals.push_back(
-          {std::make_unique<AttitudeFactor>(*frame->attitude_WI, options.physical.sigma_attitude_rad),
-           nullptr,
-           {frame->pose.data()}});
+    for (std::size_t i = 0; i < window.size(); ++i) {
+      const WindowFrame& frame = *window[i];
+      if (!frame.attitude_WI || (oldest_only && i != 0)) continue;
+      residuals.push_back({std::make_unique<AttitudeFactor>(*frame.attitude_WI, AttitudeSigma_rad(i)),
+                           nullptr,
+                           {window[i]->pose.data()}});
     }
     for (const RangeMeasurement& m : ranges) {
       const auto frame = frames.find(m.serial);

@@ -34,9 +34,16 @@ struct PhysicalConstraintOptions {
   Eigen::Vector3d p_IJ_m = Eigen::Vector3d::Zero();  ///< this sub-aircraft's spherical joint in I
   /// |d_i − d_o| to each other sub-aircraft (seed §III-A), indexed as AddPeerJoint's `peer`
   std::vector<double> link_lengths_m;
-  double sigma_link_m = 0.04;            ///< σ_l
-  double sigma_rate_radps = 0.1;         ///< σ_ω
-  double sigma_attitude_rad = 0.01;      ///< σ_att
+  double sigma_link_m = 0.04;        ///< σ_l
+  double sigma_rate_radps = 0.1;     ///< σ_ω
+  double sigma_attitude_rad = 0.01;  ///< σ_att
+  /// The attitude estimate's error is not white: a gravity-referenced filter's tilt error is a slow bias
+  /// (the accelerometer sees every sustained acceleration), correlated over seconds. Frames closer than
+  /// that see the same error, so each frame's r_kq counts for the time slice since the window frame before
+  /// it: its variance is σ_att² · max(1, 2τ/Δt), the variance of one sample of a first-order Gauss-Markov
+  /// error whose mean over a span T ≫ τ has σ_att² 2τ/T (e.g. Gelb, Applied Optimal Estimation, §3.8). 0:
+  /// white, the seed's form.
+  double attitude_correlation_s = 0.0;
   double drift_prior_position_m = 0.05;  ///< σ_drift,position^prior: at the first solve with a peer
   double drift_prior_yaw_rad = 0.1;      ///< σ_drift,yaw^prior
   double drift_step_position_m = 0.01;   ///< σ_drift,position^continuous: from one solve to the next
