@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace iapsim::sensors {
@@ -141,16 +142,61 @@ void AttitudeEstimator::Correct(const Eigen::Matrix<double, kRows, 9>& H,
   accelerometer_bias_B_mps2_ += dx.tail<3>();
 }
 
+AttitudeErrorStatistics::AttitudeErrorStatistics(double sample_interval_s) {
+  if (!(sample_interval_s > 0.0)) return;
+  samples_per_block_ = std::max<size_t>(1, static_cast<size_t>(std::lround(0.05 / sample_interval_s)));
+  block_s_ = static_cast<double>(samples_per_block_) * sample_interval_s;
+}
+
 void AttitudeErrorStatistics::Add(const Eigen::Quaterniond& q_WB_estimate,
                                   const Eigen::Quaterniond& q_WB_true) {
   const Eigen::Vector3d estimate = RollPitchYaw_rad(q_WB_estimate);
   const Eigen::Vector3d truth = RollPitchYaw_rad(q_WB_true);
+  Eigen::Vector3d error_rad;
   for (int axis = 0; axis < 3; ++axis) {
-    const double error_rad = WrapToPi(estimate[axis] - truth[axis]);
-    sum_of_squares_rad2_[axis] += error_rad * error_rad;
-    max_abs_rad_[axis] = std::max(max_abs_rad_[axis], std::fabs(error_rad));
+    error_rad[axis] = WrapToPi(estimate[axis] - truth[axis]);
+    sum_of_squares_rad2_[axis] += error_rad[axis] * error_rad[axis];
+    max_abs_rad_[axis] = std::max(max_abs_rad_[axis], std::fabs(error_rad[axis]));
   }
   ++count_;
+  if (samples_per_block_ == 0) return;
+  block_sum_rad_ += error_rad;
+  if (++block_samples_ < samples_per_block_) return;
+  block_means_rad_.push_back(block_sum_rad_ / static_cast<double>(block_samples_));
+  block_sum_rad_.setZero();
+  block_samples_ = 0;
+}
+
+Eigen::Vector3d AttitudeErrorStatistics::CorrelationTime_s() const {
+  Eigen::Vector3d tau_s = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  const size_t n = block_means_rad_.size();
+  if (samples_per_block_ == 0 || static_cast<double>(n) * block_s_ < 1.0) return tau_s;
+  const size_t max_lag = std::min(n / 2, static_cast<size_t>(30.0 / block_s_));
+  const double threshold = std::exp(-1.0);
+  for (int axis = 0; axis < 3; ++axis) {
+    double mean = 0.0;
+    for (const Eigen::Vector3d& e : block_means_rad_) mean += e[axis];
+    mean /= static_cast<double>(n);
+    std::vector<double> x(n);
+    for (size_t i = 0; i < n; ++i) x[i] = block_means_rad_[i][axis] - mean;
+    double variance = 0.0;
+    for (double v : x) variance += v * v;
+    if (!(variance > 0.0)) continue;
+    // the biased estimator (divided by the whole sum at every lag), the usual one: it stays a valid
+    // autocorrelation and errs less at long lags
+    double previous = 1.0;
+    for (size_t lag = 1; lag <= max_lag; ++lag) {
+      double sum = 0.0;
+      for (size_t i = 0; i + lag < n; ++i) sum += x[i] * x[i + lag];
+      const double r = sum / variance;
+      if (r < threshold) {
+        tau_s[axis] = block_s_ * (static_cast<double>(lag - 1) + (previous - threshold) / (previous - r));
+        break;
+      }
+      previous = r;
+    }
+  }
+  return tau_s;
 }
 
 Eigen::Vector3d AttitudeErrorStatistics::RootMeanSquare_rad() const {

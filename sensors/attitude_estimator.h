@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstddef>
 #include <optional>
+#include <vector>
 
 #include "sensors/imu.h"
 
@@ -84,16 +85,30 @@ class AttitudeEstimator {
 /// Roll, pitch and yaw errors of an estimate against the truth, over many samples.
 class AttitudeErrorStatistics {
  public:
+  /// With the time between Adds (> 0), it also keeps the errors' 50 ms means for CorrelationTime_s.
+  explicit AttitudeErrorStatistics(double sample_interval_s = 0.0);
+
   void Add(const Eigen::Quaterniond& q_WB_estimate, const Eigen::Quaterniond& q_WB_true);
   size_t count() const { return count_; }
   /// Root mean square of the (wrapped) roll, pitch and yaw differences; zero before the first Add.
   Eigen::Vector3d RootMeanSquare_rad() const;
   Eigen::Vector3d MaxAbs_rad() const { return max_abs_rad_; }
+  /// How long each axis's error persists: the lag at which its autocorrelation (mean removed; over the
+  /// 50 ms means) first falls to 1/e, interpolated between lags; the time constant of a first-order
+  /// Gauss-Markov error. A consumer that weighs samples as independent must know it (vio's
+  /// virpo.attitude_correlation_s). NaN where it does not fall to 1/e within 30 s or half the run, or
+  /// with under 1 s of errors or no sample interval.
+  Eigen::Vector3d CorrelationTime_s() const;
 
  private:
   size_t count_ = 0;
   Eigen::Vector3d sum_of_squares_rad2_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d max_abs_rad_ = Eigen::Vector3d::Zero();
+  size_t samples_per_block_ = 0;  ///< 0: no series kept
+  double block_s_ = 0.0;
+  Eigen::Vector3d block_sum_rad_ = Eigen::Vector3d::Zero();
+  size_t block_samples_ = 0;
+  std::vector<Eigen::Vector3d> block_means_rad_;
 };
 
 }  // namespace iapsim::sensors

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <random>
 #include <stdexcept>
 
 #include "sensors/heading_sensor.h"
@@ -255,6 +256,41 @@ TEST(AttitudeErrorStatistics, RootMeanSquareAndMaximumPerAxis) {
   EXPECT_NEAR(stats.RootMeanSquare_rad().y(), 0.0, 1e-12);
   EXPECT_NEAR(stats.MaxAbs_rad().z(), 2.0 * M_PI - 6.2, 1e-12);
   EXPECT_NEAR(stats.MaxAbs_rad().x(), 0.04, 1e-12);
+}
+
+// First-order Gauss-Markov errors of known time constants (2 s in roll, 0.5 s in pitch, white in yaw) at
+// 200 Hz over 20 min come back as those time constants within 15 %: the estimate's spread is about
+// sqrt(2 tau / T) of tau (6 % in roll, 3 % in pitch), measured 2.14 / 0.50 / 0.03 s. Without a sample
+// interval, or with under 1 s of errors, there is no figure.
+TEST(AttitudeErrorStatistics, CorrelationTimeOfGaussMarkovErrors) {
+  const double dt_s = 0.005;
+  const Eigen::Vector2d tau_s(2.0, 0.5);
+  std::mt19937_64 random(11);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  AttitudeErrorStatistics stats(dt_s);
+  AttitudeErrorStatistics no_interval;
+  Eigen::Vector2d error_rad = Eigen::Vector2d::Zero();
+  const Eigen::Quaterniond truth = FromRollPitchYaw(0.0, 0.0, 1.0);
+  for (int k = 0; k < 240000; ++k) {
+    for (int axis = 0; axis < 2; ++axis) {  // exact discretisation, stationary sigma 0.02 rad
+      const double phi = std::exp(-dt_s / tau_s[axis]);
+      error_rad[axis] = phi * error_rad[axis] + 0.02 * std::sqrt(1.0 - phi * phi) * normal(random);
+    }
+    const Eigen::Quaterniond estimate =
+        FromRollPitchYaw(error_rad.x(), error_rad.y(), 1.0 + 0.02 * normal(random));
+    stats.Add(estimate, truth);
+    no_interval.Add(estimate, truth);
+    if (k == 150) {
+      EXPECT_TRUE(stats.CorrelationTime_s().array().isNaN().all()) << "0.75 s of errors";
+    }
+  }
+  const Eigen::Vector3d measured_s = stats.CorrelationTime_s();
+  std::printf("correlation time roll %.3f s (2), pitch %.3f s (0.5), yaw %.3f s (white)\n", measured_s.x(),
+              measured_s.y(), measured_s.z());
+  EXPECT_NEAR(measured_s.x(), 2.0, 0.3);
+  EXPECT_NEAR(measured_s.y(), 0.5, 0.075);
+  EXPECT_LT(measured_s.z(), 0.05);  // white: within the first 50 ms block
+  EXPECT_TRUE(no_interval.CorrelationTime_s().array().isNaN().all());
 }
 
 }  // namespace

@@ -63,10 +63,12 @@ struct SubAircraftSensors {
 class SensorsNode : public bridge::Process {
  public:
   SensorsNode(const bridge::ProcessContext& context, bridge::YamlMap& params)
-      : process_step_s_(context.self.rate_hz > 0 ? 1.0 / context.self.rate_hz : context.scenario.clock.step_s) {
+      : process_step_s_(context.self.rate_hz > 0 ? 1.0 / context.self.rate_hz
+                                                 : context.scenario.clock.step_s) {
     bridge::YamlMap vehicle = params.Map("vehicle");
     vehicle.Required("name", &vehicle_name_);
-    const model::Vehicle model = model::LoadVehicle(bridge::ReadFilePath(vehicle, "file", context.scenario.file));
+    const model::Vehicle model =
+        model::LoadVehicle(bridge::ReadFilePath(vehicle, "file", context.scenario.file));
     vehicle.Finish();
     config_ = ReadSensorsConfig(params);
     imu_every_ = Divider(params, "imu", config_.imu.rate_hz);
@@ -76,9 +78,11 @@ class SensorsNode : public bridge::Process {
       subs_.push_back(SubAircraftSensors{
           model.sub_aircraft[i].name, ImuModel(config_.imu, SeedFor(context.seed, i, 0)),
           AttitudeEstimator(config_.attitude_estimator),
-          config_.heading ? std::optional<HeadingSensor>(HeadingSensor(*config_.heading, SeedFor(context.seed, i, 1)))
-                          : std::nullopt,
-          UwbModel(config_.uwb.noise, SeedFor(context.seed, i, 2)), AttitudeErrorStatistics()});
+          config_.heading
+              ? std::optional<HeadingSensor>(HeadingSensor(*config_.heading, SeedFor(context.seed, i, 1)))
+              : std::nullopt,
+          UwbModel(config_.uwb.noise, SeedFor(context.seed, i, 2)),
+          AttitudeErrorStatistics(static_cast<double>(imu_every_) * process_step_s_)});
     }
     filter_.emplace(config_.wrench_filter, process_step_s_);
     if (config_.odometry) {
@@ -89,11 +93,12 @@ class SensorsNode : public bridge::Process {
 
   void Setup(bridge::Bus& bus) override {
     bus_ = &bus;
-    bus.Subscribe<iapsim_msgs::IapState>("/" + vehicle_name_ + "/state",
-                                         [this](const iapsim_msgs::IapState& state, const bridge::MessageInfo&) {
-                                           state_ = state;
-                                           have_state_ = true;
-                                         });
+    bus.Subscribe<iapsim_msgs::IapState>(
+        "/" + vehicle_name_ + "/state",
+        [this](const iapsim_msgs::IapState& state, const bridge::MessageInfo&) {
+          state_ = state;
+          have_state_ = true;
+        });
   }
 
   void Step(const bridge::StepInfo&) override {
@@ -118,6 +123,8 @@ class SensorsNode : public bridge::Process {
       const Eigen::Vector3d max_deg = sub.attitude_errors.MaxAbs_rad() * kRadToDeg;
       out["attitude_error_rms_deg"] = {{"roll", rms_deg.x()}, {"pitch", rms_deg.y()}, {"yaw", rms_deg.z()}};
       out["attitude_error_max_deg"] = {{"roll", max_deg.x()}, {"pitch", max_deg.y()}, {"yaw", max_deg.z()}};
+      const Eigen::Vector3d tau_s = sub.attitude_errors.CorrelationTime_s();  // NaN: null in the JSON
+      out["attitude_error_correlation_s"] = {{"roll", tau_s.x()}, {"pitch", tau_s.y()}, {"yaw", tau_s.z()}};
     }
     if (odometry_) {
       nlohmann::json& out = (*report)["odometry"];
@@ -178,8 +185,8 @@ class SensorsNode : public bridge::Process {
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) attitude.orientation_covariance[3 * r + c] = attitude_covariance(r, c);
     }
-    attitude.angular_velocity =
-        bridge::ToVector3Msg(config_.attitude_estimator.q_BI * sample.w_I_radps - sub.estimator.gyroscope_bias_B_radps());
+    attitude.angular_velocity = bridge::ToVector3Msg(config_.attitude_estimator.q_BI * sample.w_I_radps -
+                                                     sub.estimator.gyroscope_bias_B_radps());
     bus_->Publish(Topic(sub.name, "attitude"), attitude);
   }
 
