@@ -40,9 +40,9 @@ struct PhysicalConstraintOptions {
   /// The attitude estimate's error is not white: a gravity-referenced filter's tilt error is a slow bias
   /// (the accelerometer sees every sustained acceleration), correlated over seconds. Frames closer than
   /// that see the same error, so each frame's r_kq counts for the time slice since the window frame before
-  /// it: its variance is σ_att² · max(1, 2τ/Δt), the variance of one sample of a first-order Gauss-Markov
-  /// error whose mean over a span T ≫ τ has σ_att² 2τ/T (e.g. Gelb, Applied Optimal Estimation, §3.8). 0:
-  /// white, the seed's form.
+  /// it: its variance is σ_att² · max(1, 2τ/Δt), so that the frames of a span T ≫ τ together carry the
+  /// variance of the error's mean over it, σ_att² 2τ/T for a first-order Gauss-Markov error (the integral
+  /// of its autocorrelation σ² e^(−|u|/τ) is 2τσ²). 0: white, the seed's form.
   double attitude_correlation_s = 0.0;
   double drift_prior_position_m = 0.05;  ///< σ_drift,position^prior: at the first solve with a peer
   double drift_prior_yaw_rad = 0.1;      ///< σ_drift,yaw^prior
