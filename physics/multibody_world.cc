@@ -169,7 +169,7 @@ struct MultibodyWorld::Impl {
     }
   }
   internal::CollisionConfiguration collision_config;
-  btCollisionDispatcher dispatcher{&collision_config};
+  internal::Dispatcher dispatcher{&collision_config, settings.contact_breaking_distance_m};
   btDbvtBroadphase broadphase;
   internal::ContactSolver solver;
   btMultiBodyDynamicsWorld world{&dispatcher, &broadphase, &solver, &collision_config};
@@ -617,6 +617,7 @@ struct MultibodyWorld::Impl {
       const int b = BodyOf(manifold->getBody1());
       for (int p = 0; p < manifold->getNumContacts(); ++p) {
         const btManifoldPoint& point = manifold->getContactPoint(p);
+        if (point.getDistance() <= manifold->getContactProcessingThreshold()) ++solver_stats.contact_points;
         if (point.getDistance() > 0.0 && point.getAppliedImpulse() == 0.0) continue;  // not touching
         Contact contact;
         contact.body_a = a;

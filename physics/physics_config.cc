@@ -67,6 +67,7 @@ WorldConfig ReadWorld(YamlMap& map) {
   map.OptionalInRange("solver_tolerance_mps", &world.solver_tolerance_mps, 0.0, 1.0);
   map.Optional("warm_start", &world.warm_start);
   map.OptionalInRange("speculative_contact_speed_mps", &world.speculative_contact_speed_mps, 0.0, 1000.0);
+  map.OptionalInRange("contact_breaking_distance_m", &world.contact_breaking_distance_m, 0.0, 1.0);
   map.Optional("factored_contact_rows", &world.factored_contact_rows);
   if (map.Has("ground")) {
     YamlMap ground = map.Map("ground");

@@ -160,7 +160,9 @@ class PhysicsNode : public bridge::Process {
         {"mean_iterations", solver.solves > 0 ? static_cast<double>(solver.iterations) / solver.solves : 0.0},
         {"max_iterations", solver.max_iterations},
         {"capped_solves", solver.capped_solves},
-        {"max_capped_residual_mps", solver.max_residual_mps}};
+        {"max_capped_residual_mps", solver.max_residual_mps},
+        {"contact_points_per_solve",
+         solver.solves > 0 ? static_cast<double>(solver.contact_points) / solver.solves : 0.0}};
     for (int v = 0; v < sim_->vehicle_count(); ++v) {
       const VehicleOutput& out = sim_->output(v);
       auto& entry = (*report)["vehicles"][sim_->vehicle(v).name];

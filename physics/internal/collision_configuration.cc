@@ -86,15 +86,11 @@ class CulledConvexAlgorithm final : public btCollisionAlgorithm {
 
   void processCollision(const btCollisionObjectWrapper* body0, const btCollisionObjectWrapper* body1,
                         const btDispatcherInfo& dispatch_info, btManifoldResult* result) override {
-    // the distance within which the manifold keeps points (btCollisionDispatcher::getNewManifold): the
-    // smaller of the two bodies' (their whole shapes', compounds included), or Bullet's global one
-    const btCollisionShape* shape0 = body0->getCollisionObject()->getCollisionShape();
-    const btCollisionShape* shape1 = body1->getCollisionObject()->getCollisionShape();
-    const bool relative = static_cast<btCollisionDispatcher*>(m_dispatcher)->getDispatcherFlags() &
-                          btCollisionDispatcher::CD_USE_RELATIVE_CONTACT_BREAKING_THRESHOLD;
-    const double gap_m = (relative ? std::min(shape0->getContactBreakingThreshold(gContactBreakingThreshold),
-                                              shape1->getContactBreakingThreshold(gContactBreakingThreshold))
-                                   : gContactBreakingThreshold) +
+    // the distance within which the manifold keeps points (Dispatcher::getNewManifold), of the two bodies'
+    // whole shapes (compounds included)
+    const double gap_m = static_cast<const Dispatcher*>(m_dispatcher)
+                             ->BreakingDistance(*body0->getCollisionObject()->getCollisionShape(),
+                                                *body1->getCollisionObject()->getCollisionShape()) +
                          result->m_closestPointDistanceThreshold;
     if (!BoundsApart(BoundOf(*body0), BoundOf(*body1), gap_m)) {
       gjk_->processCollision(body0, body1, dispatch_info, result);
@@ -211,6 +207,26 @@ btCollisionAlgorithmCreateFunc* CollisionConfiguration::getCollisionAlgorithmCre
   btCollisionAlgorithmCreateFunc* bullet =
       btDefaultCollisionConfiguration::getCollisionAlgorithmCreateFunc(proxy_type_0, proxy_type_1);
   return bullet == m_convexConvexCreateFunc ? culled_convex_create_func_ : bullet;
+}
+
+Dispatcher::Dispatcher(btCollisionConfiguration* config, double max_breaking_m)
+    : btCollisionDispatcher(config), max_breaking_m_(max_breaking_m) {}
+
+btPersistentManifold* Dispatcher::getNewManifold(const btCollisionObject* body0,
+                                                 const btCollisionObject* body1) {
+  btPersistentManifold* manifold = btCollisionDispatcher::getNewManifold(body0, body1);
+  manifold->setContactBreakingThreshold(
+      BreakingDistance(*body0->getCollisionShape(), *body1->getCollisionShape()));
+  return manifold;
+}
+
+double Dispatcher::BreakingDistance(const btCollisionShape& shape0, const btCollisionShape& shape1) const {
+  // as btCollisionDispatcher::getNewManifold
+  const double bullet_m = (getDispatcherFlags() & CD_USE_RELATIVE_CONTACT_BREAKING_THRESHOLD)
+                              ? std::min(shape0.getContactBreakingThreshold(gContactBreakingThreshold),
+                                         shape1.getContactBreakingThreshold(gContactBreakingThreshold))
+                              : gContactBreakingThreshold;
+  return max_breaking_m_ > 0.0 ? std::min(bullet_m, max_breaking_m_) : bullet_m;
 }
 
 }  // namespace iapsim::physics::internal
