@@ -43,6 +43,7 @@ struct Bound {
 /// may be within `gap_m`.
 bool BoundsApart(const Bound& a, const Bound& b, double gap_m);
 
+/// Its culled convex pairs read the breaking distance from the dispatcher: use it with a Dispatcher (below).
 class CollisionConfiguration final : public btDefaultCollisionConfiguration {
  public:
   CollisionConfiguration();
