@@ -475,4 +475,23 @@ MultibodyDescription LoadUrdfFile(const std::string& path) {
   return description;
 }
 
+MultibodyDescription SolidCylinder(const std::string& name, double mass_kg, double radius_m,
+                                   double length_m) {
+  LinkDescription link;
+  link.name = name;
+  link.mass.mass_kg = mass_kg;
+  const double across_kgm2 = mass_kg * (3.0 * radius_m * radius_m + length_m * length_m) / 12.0;
+  link.mass.inertia_B_kgm2 =
+      Eigen::Vector3d(across_kgm2, across_kgm2, 0.5 * mass_kg * radius_m * radius_m).asDiagonal();
+  Shape cylinder;
+  cylinder.kind = Shape::Kind::kCylinder;
+  cylinder.radius_m = radius_m;
+  cylinder.length_m = length_m;
+  link.collision = {cylinder};
+  MultibodyDescription body;
+  body.name = name;
+  body.links = {link};
+  return body;
+}
+
 }  // namespace iapsim::model

@@ -64,6 +64,10 @@ struct MultibodyDescription {
   std::vector<JointDescription> joints;  // in tree order: a joint's parent comes before its child
 };
 
+/// A free body of one link: a uniform solid cylinder along the link's z axis, its frame at the centre,
+/// colliding as itself (a tool alone, as the peg-in-hole's pole).
+MultibodyDescription SolidCylinder(const std::string& name, double mass_kg, double radius_m, double length_m);
+
 /// Parses URDF text; `source` (a file name) is used in error messages. Throws std::invalid_argument.
 MultibodyDescription ParseUrdf(const std::string& xml, const std::string& source);
 

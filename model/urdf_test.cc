@@ -395,5 +395,23 @@ TEST(Urdf, RejectsWhatItCannotSimulateNamingTheFile) {
   EXPECT_THROW(LoadUrdfFile("/no/such.urdf"), std::invalid_argument);
 }
 
+// A solid cylinder's inertia by hand: 2 kg, r = 0.1 m, L = 0.6 m gives m (3 r^2 + L^2) / 12 = 0.065 across
+// and m r^2 / 2 = 0.01 kg m^2 about its axis.
+TEST(Urdf, ASolidCylinderHasItsTextbookInertiaAndCollidesAsItself) {
+  const MultibodyDescription pole = SolidCylinder("pole", 2.0, 0.1, 0.6);
+  ASSERT_EQ(pole.links.size(), 1u);
+  EXPECT_TRUE(pole.joints.empty());
+  const LinkDescription& link = pole.links[0];
+  EXPECT_DOUBLE_EQ(link.mass.mass_kg, 2.0);
+  EXPECT_NEAR(link.mass.inertia_B_kgm2(0, 0), 0.065, 1e-15);
+  EXPECT_NEAR(link.mass.inertia_B_kgm2(1, 1), 0.065, 1e-15);
+  EXPECT_NEAR(link.mass.inertia_B_kgm2(2, 2), 0.01, 1e-15);
+  EXPECT_TRUE(link.mass.inertia_B_kgm2.isDiagonal(0.0));
+  ASSERT_EQ(link.collision.size(), 1u);
+  EXPECT_EQ(link.collision[0].kind, Shape::Kind::kCylinder);
+  EXPECT_EQ(link.collision[0].radius_m, 0.1);
+  EXPECT_EQ(link.collision[0].length_m, 0.6);
+}
+
 }  // namespace
 }  // namespace iapsim::model

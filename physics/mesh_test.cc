@@ -155,23 +155,7 @@ TEST(MeshCollision, BallsDroppedIntoTheFunnelSettleOnItsAxis) {
 // A pole 0.3 m long and 30 mm thick, 0.3 kg: a multibody link, what a vehicle's tool is.
 constexpr double kPoleRadius_m = 0.015;
 constexpr double kPoleLength_m = 0.3;
-model::MultibodyDescription Pole() {
-  model::MultibodyDescription pole;
-  pole.name = "pole";
-  model::LinkDescription link;
-  link.name = "pole";
-  link.mass.mass_kg = 0.3;
-  const double Ixx = 0.3 * (3 * kPoleRadius_m * kPoleRadius_m + kPoleLength_m * kPoleLength_m) / 12.0;
-  link.mass.inertia_B_kgm2 =
-      Eigen::Vector3d(Ixx, Ixx, 0.3 * kPoleRadius_m * kPoleRadius_m / 2.0).asDiagonal();
-  model::Shape cylinder;
-  cylinder.kind = model::Shape::Kind::kCylinder;
-  cylinder.radius_m = kPoleRadius_m;
-  cylinder.length_m = kPoleLength_m;
-  link.collision = {cylinder};
-  pole.links = {link};
-  return pole;
-}
+model::MultibodyDescription Pole() { return model::SolidCylinder("pole", 0.3, kPoleRadius_m, kPoleLength_m); }
 
 // Dropped upright with its lower end 2 cm above the funnel's mouth and 4 cm off the axis.
 int DropPole(MultibodyWorld* world) {
