@@ -2,14 +2,14 @@
 // running, every output computed) for the three-star IAP in the air and resting on the ground, and for IAPs
 // of 2 to 8 sub-aircraft, each next to a bare Bullet multibody of the same size stepped in the same run; the
 // resting IAP's contact solve from Bullet's defaults to iapsim's, beside MuJoCo on the same scene; a pole in
-// the peg-in-hole's funnel with Bullet's contact breaking distance and with 1 mm.
+// the peg-in-hole flight's funnel with Bullet's contact breaking distance and with the flight's.
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <vector>
 
 #include "model/urdf.h"
@@ -236,10 +236,19 @@ void BenchContact(const model::Vehicle& vehicle, double air_steps_per_s, nlohman
 }
 
 // The peg-in-hole's contact in miniature: a pole 30 mm thick and 0.3 m long (0.3 kg, a multibody link as a
-// vehicle's tool is) dropped into the funnel and leaning in its 50 mm hole after 2 s, kept awake, collided
-// within Bullet's breaking distance (3.5 mm for the funnel) and within the peg-in-hole flight's 1 mm: steps/s
-// and the contact points a solve is given, in pairs of runs in turn.
-void BenchConformalContact(const std::string& funnel_file, nlohmann::json* report) {
+// vehicle's tool is) dropped into the peg-in-hole flight's funnel, mouth up, and leaning in its 50 mm hole
+// after 2 s, kept awake, collided within Bullet's breaking distance (3.5 mm for the funnel) and within the
+// flight's own `contact_breaking_distance_m`: steps/s and the contact points a solve is given, in pairs of
+// runs in turn.
+void BenchConformalContact(const std::string& peg_scenario, nlohmann::json* report) {
+  const physics::WorldConfig flight_world = physics::LoadScenarioPhysics(peg_scenario).simulation.world;
+  const auto funnel =
+      std::find_if(flight_world.objects.begin(), flight_world.objects.end(),
+                   [](const physics::WorldObject& object) { return object.name == "funnel"; });
+  if (funnel == flight_world.objects.end()) {
+    throw std::runtime_error(peg_scenario + ": expected a world object named 'funnel'");
+  }
+  const double flight_breaking_m = flight_world.contact_breaking_distance_m;
   const model::MultibodyDescription pole = model::SolidCylinder("pole", 0.3, 0.015, 0.3);
   struct Figures {
     double steps_per_s = 0.0;
@@ -249,15 +258,10 @@ void BenchConformalContact(const std::string& funnel_file, nlohmann::json* repor
     physics::SimulationConfig config;
     config.world.sleep_after_s = 0.0;
     config.world.contact_breaking_distance_m = breaking_m;
-    physics::WorldObject funnel;
-    funnel.name = "funnel";
-    model::Shape mesh;
-    mesh.kind = model::Shape::Kind::kMesh;
-    mesh.mesh_file = funnel_file;
-    mesh.mesh_convex = true;
-    funnel.shapes = {mesh};
-    funnel.p_WO_m = Eigen::Vector3d(0.0, 0.0, -0.5);  // mouth up (NED), 0.5 m above the ground
-    config.world.objects = {funnel};
+    physics::WorldObject upright = *funnel;
+    upright.p_WO_m = Eigen::Vector3d(0.0, 0.0, -0.5);  // mouth up (NED), 0.5 m above the ground
+    upright.q_WO = Eigen::Quaterniond::Identity();
+    config.world.objects = {upright};
     physics::Simulation simulation(config);
     // its lower end 2 cm above the mouth and 4 cm off the axis
     simulation.mutable_world().AddMultibody("pole", pole, Eigen::Vector3d(0.04, 0.0, -0.5 - 0.02 - 0.15),
@@ -276,7 +280,7 @@ void BenchConformalContact(const std::string& funnel_file, nlohmann::json* repor
   Figures last_bullet, last_capped;
   for (int i = 0; i < kPairs; ++i) {
     last_bullet = measure(0.0, kSecondsPerFigure / kPairs);
-    last_capped = measure(1e-3, kSecondsPerFigure / kPairs);
+    last_capped = measure(flight_breaking_m, kSecondsPerFigure / kPairs);
     bullet.push_back(last_bullet.steps_per_s);
     capped.push_back(last_capped.steps_per_s);
     ratios.push_back(last_capped.steps_per_s / last_bullet.steps_per_s);
@@ -286,11 +290,15 @@ void BenchConformalContact(const std::string& funnel_file, nlohmann::json* repor
   std::printf("  %-44s %10s %18s\n", "", "steps/s", "points a solve");
   std::printf("  %-44s %10.0f %18.1f\n", "Bullet's breaking distance (3.5 mm here)", bullet[kPairs / 2],
               last_bullet.points_per_solve);
-  std::printf("  %-44s %10.0f %18.1f  (%s, median of %d pairs of runs in turn, %s-%s)\n",
-              "contact_breaking_distance_m 0.001", capped[kPairs / 2], last_capped.points_per_solve,
-              Ratio(ratios[kPairs / 2]).c_str(), kPairs, Ratio(ratios.front()).c_str(),
-              Ratio(ratios.back()).c_str());
-  (*report)["conformal_contact"] = {{"bullet_steps_per_s", bullet[kPairs / 2]},
+  char capped_name[64];
+  std::snprintf(capped_name, sizeof(capped_name), "the flight's distance (%g m)",
+                flight_breaking_m);
+  std::printf("  %-44s %10.0f %18.1f  (%s, median of %d pairs of runs in turn, %s-%s)\n", capped_name,
+              capped[kPairs / 2], last_capped.points_per_solve, Ratio(ratios[kPairs / 2]).c_str(), kPairs,
+              Ratio(ratios.front()).c_str(), Ratio(ratios.back()).c_str());
+  (*report)["conformal_contact"] = {{"scenario", peg_scenario},
+                                    {"contact_breaking_distance_m", flight_breaking_m},
+                                    {"bullet_steps_per_s", bullet[kPairs / 2]},
                                     {"capped_steps_per_s", capped[kPairs / 2]},
                                     {"bullet_points_per_solve", last_bullet.points_per_solve},
                                     {"capped_points_per_solve", last_capped.points_per_solve},
@@ -340,10 +348,7 @@ int BenchPhysics(const std::string& vehicle_path, const std::string& scenario_pa
   (*report)["physics"]["gusty_air_actuated_steps_per_s"] = actuated;
   (*report)["physics"]["still_air_episode_steps_per_s"] = still;
   BenchContact(three_star, air, &(*report)["physics"]);
-  BenchConformalContact((std::filesystem::path(vehicle_path).parent_path() / "../meshes/funnel.obj")
-                            .lexically_normal()
-                            .string(),
-                        &(*report)["physics"]);
+  BenchConformalContact("configs/regression/peg_in_hole.yaml", &(*report)["physics"]);
 
   std::printf("\n  %3s %12s %8s %12s %12s %14s\n", "n", "in the air", "vs bare", "on ground", "bare",
               "us/step (air)");
