@@ -53,21 +53,24 @@ AttitudeEstimator::AttitudeEstimator(const AttitudeEstimatorConfig& config) : co
 
 void AttitudeEstimator::InitializeFromAccelerometer(const ImuSample& sample, double yaw_rad) {
   Initialize(LevelFromSpecificForce(config_.q_BI * sample.f_I_mps2, yaw_rad), Eigen::Vector3d::Zero());
-  previous_w_B_radps_ = config_.q_BI * sample.w_I_radps;
+  previous_B_ = ImuSample{config_.q_BI * sample.f_I_mps2, config_.q_BI * sample.w_I_radps};
 }
 
 void AttitudeEstimator::Initialize(const Eigen::Quaterniond& q_WB,
-                                   const Eigen::Vector3d& gyroscope_bias_B_radps) {
+                                   const Eigen::Vector3d& gyroscope_bias_B_radps,
+                                   const Eigen::Vector3d& v_W_mps) {
   q_WB_ = q_WB.normalized();
   gyroscope_bias_B_radps_ = gyroscope_bias_B_radps;
   accelerometer_bias_B_mps2_.setZero();
-  previous_w_B_radps_.reset();
+  v_W_mps_ = v_W_mps;
+  previous_B_.reset();
   const double tilt2 = config_.initial_tilt_sigma_rad * config_.initial_tilt_sigma_rad;
   P_.setZero();
   // the attitude error is in B: near level, its x and y are roll and pitch, its z yaw
   P_.diagonal() << tilt2, tilt2, config_.initial_yaw_sigma_rad * config_.initial_yaw_sigma_rad,
       Eigen::Vector3d::Constant(std::pow(config_.initial_gyroscope_bias_sigma_radps, 2)),
-      Eigen::Vector3d::Constant(std::pow(config_.initial_accelerometer_bias_sigma_mps2, 2));
+      Eigen::Vector3d::Constant(std::pow(config_.initial_accelerometer_bias_sigma_mps2, 2)),
+      Eigen::Vector3d::Constant(std::pow(config_.initial_velocity_sigma_mps, 2));
   initialized_ = true;
 }
 
@@ -83,32 +86,45 @@ bool AttitudeEstimator::Update(const ImuSample& sample, double dt_s) {
   // propagate: q ← q ⊗ Exp((ω − b_g)Δt); the error rotates back by that step and integrates −δb_g.
   // The rate at the step's end alone would be off by αΔt/2 (1 mrad/s at 0.4 rad/s² and 200 Hz), more
   // than the gyroscope bias the filter is after.
-  const Eigen::Vector3d measured_w_B_radps = config_.q_BI * sample.w_I_radps;
+  const ImuSample measured_B{config_.q_BI * sample.f_I_mps2, config_.q_BI * sample.w_I_radps};
+  const ImuSample& previous_B = previous_B_.value_or(measured_B);
   const Eigen::Vector3d w_B_radps =
-      0.5 * (measured_w_B_radps + previous_w_B_radps_.value_or(measured_w_B_radps)) - gyroscope_bias_B_radps_;
-  previous_w_B_radps_ = measured_w_B_radps;
+      0.5 * (measured_B.w_I_radps + previous_B.w_I_radps) - gyroscope_bias_B_radps_;
+  previous_B_ = measured_B;
   const Eigen::Quaterniond step = Exp(w_B_radps * dt_s);
-  q_WB_ = (q_WB_ * step).normalized();
-  Matrix9d F = Matrix9d::Identity();
+  MatrixState F = MatrixState::Identity();
   F.block<3, 3>(0, 0) = step.toRotationMatrix().transpose();
   F.block<3, 3>(0, 3) = -dt_s * Eigen::Matrix3d::Identity();
-  Eigen::Matrix<double, 9, 1> Q;
-  Q << Eigen::Vector3d::Constant(std::pow(noise.gyroscope_noise_density, 2) * dt_s),
+  Eigen::Matrix<double, kStates, 1> Q = Eigen::Matrix<double, kStates, 1>::Zero();
+  Q.head<9>() << Eigen::Vector3d::Constant(std::pow(noise.gyroscope_noise_density, 2) * dt_s),
       Eigen::Vector3d::Constant(std::pow(noise.gyroscope_random_walk, 2) * dt_s),
       Eigen::Vector3d::Constant(std::pow(noise.accelerometer_random_walk, 2) * dt_s);
+  if (config_.velocity_aided) {
+    // v ← v + (R_WB(mid-step) (f − b_a) + g e3)Δt; δv gains −R[f]×δθ Δt − R δb_a Δt (Solà 2017)
+    const Eigen::Vector3d f_B_mps2 =
+        0.5 * (measured_B.f_I_mps2 + previous_B.f_I_mps2) - accelerometer_bias_B_mps2_;
+    const Eigen::Matrix3d R_WB_mid = (q_WB_ * Exp(0.5 * w_B_radps * dt_s)).toRotationMatrix();
+    v_W_mps_ += (R_WB_mid * f_B_mps2 + config_.gravity_mps2 * Eigen::Vector3d::UnitZ()) * dt_s;
+    F.block<3, 3>(9, 0) = -dt_s * R_WB_mid * Skew(f_B_mps2);
+    F.block<3, 3>(9, 6) = -dt_s * R_WB_mid;
+    Q.tail<3>() = Eigen::Vector3d::Constant(std::pow(noise.accelerometer_noise_density, 2) * dt_s);
+  }
+  q_WB_ = (q_WB_ * step).normalized();
   P_ = F * P_ * F.transpose();
   P_.diagonal() += Q;
+  if (config_.velocity_aided) return true;
 
   // correct with gravity: f_B = −g R_WBᵀ e3 + b_a; a perturbation δθ in B changes it by −g [R_WBᵀe3]× δθ
-  const Eigen::Vector3d f_B_mps2 = config_.q_BI * sample.f_I_mps2;
-  if (std::fabs(f_B_mps2.norm() - config_.gravity_mps2) > config_.acceleration_gate_mps2) return false;
+  if (std::fabs(measured_B.f_I_mps2.norm() - config_.gravity_mps2) > config_.acceleration_gate_mps2)
+    return false;
   const Eigen::Vector3d down_B = q_WB_.conjugate() * Eigen::Vector3d::UnitZ();
-  Eigen::Matrix<double, 3, 9> H = Eigen::Matrix<double, 3, 9>::Zero();
+  Eigen::Matrix<double, 3, kStates> H = Eigen::Matrix<double, 3, kStates>::Zero();
   H.block<3, 3>(0, 0) = -config_.gravity_mps2 * Skew(down_B);
   H.block<3, 3>(0, 6) = Eigen::Matrix3d::Identity();
-  const double reading_variance_m2ps4 =
-      std::pow(noise.accelerometer_noise_density, 2) / dt_s + std::pow(config_.acceleration_sigma_mps2, 2);
-  Correct<3>(H, f_B_mps2 - (-config_.gravity_mps2 * down_B + accelerometer_bias_B_mps2_),
+  const double reading_variance_m2ps4 = std::pow(noise.accelerometer_noise_density, 2) / dt_s +
+                                        std::pow(config_.acceleration_sigma_mps2, 2) *
+                                            std::max(1.0, 2.0 * config_.acceleration_correlation_s / dt_s);
+  Correct<3>(H, measured_B.f_I_mps2 - (-config_.gravity_mps2 * down_B + accelerometer_bias_B_mps2_),
              reading_variance_m2ps4 * Eigen::Matrix3d::Identity());
   return true;
 }
@@ -120,26 +136,40 @@ void AttitudeEstimator::UpdateHeading(double yaw_rad, double sigma_rad) {
   }
   // yaw rate from body rates: ψ̇ = (sin φ q + cos φ r)/cos θ
   const Eigen::Vector3d rpy = RollPitchYaw_rad(q_WB_);
-  Eigen::Matrix<double, 1, 9> H = Eigen::Matrix<double, 1, 9>::Zero();
+  Eigen::Matrix<double, 1, kStates> H = Eigen::Matrix<double, 1, kStates>::Zero();
   H(0, 1) = std::sin(rpy.x()) / std::cos(rpy.y());
   H(0, 2) = std::cos(rpy.x()) / std::cos(rpy.y());
   Correct<1>(H, Eigen::Matrix<double, 1, 1>(WrapToPi(yaw_rad - rpy.z())),
              Eigen::Matrix<double, 1, 1>(sigma_rad * sigma_rad));
 }
 
+void AttitudeEstimator::UpdateVelocity(const Eigen::Vector3d& v_W_mps, double sigma_mps) {
+  ThrowUnlessInitialized();
+  if (!config_.velocity_aided) {
+    throw std::logic_error("AttitudeEstimator::UpdateVelocity: the filter is not velocity_aided");
+  }
+  if (!(sigma_mps > 0.0)) {
+    throw std::invalid_argument("AttitudeEstimator::UpdateVelocity: sigma_mps must be positive");
+  }
+  Eigen::Matrix<double, 3, kStates> H = Eigen::Matrix<double, 3, kStates>::Zero();
+  H.block<3, 3>(0, 9) = Eigen::Matrix3d::Identity();
+  Correct<3>(H, v_W_mps - v_W_mps_, sigma_mps * sigma_mps * Eigen::Matrix3d::Identity());
+}
+
 template <int kRows>
-void AttitudeEstimator::Correct(const Eigen::Matrix<double, kRows, 9>& H,
+void AttitudeEstimator::Correct(const Eigen::Matrix<double, kRows, kStates>& H,
                                 const Eigen::Matrix<double, kRows, 1>& residual,
                                 const Eigen::Matrix<double, kRows, kRows>& R) {
   const Eigen::Matrix<double, kRows, kRows> S = H * P_ * H.transpose() + R;
-  const Eigen::Matrix<double, 9, kRows> K = P_ * H.transpose() * S.inverse();
-  const Eigen::Matrix<double, 9, 1> dx = K * residual;
+  const Eigen::Matrix<double, kStates, kRows> K = P_ * H.transpose() * S.inverse();
+  const Eigen::Matrix<double, kStates, 1> dx = K * residual;
   // Joseph form: stays symmetric and positive definite in long runs
-  const Matrix9d I_KH = Matrix9d::Identity() - K * H;
+  const MatrixState I_KH = MatrixState::Identity() - K * H;
   P_ = I_KH * P_ * I_KH.transpose() + K * R * K.transpose();
   q_WB_ = (q_WB_ * Exp(dx.head<3>())).normalized();
   gyroscope_bias_B_radps_ += dx.segment<3>(3);
-  accelerometer_bias_B_mps2_ += dx.tail<3>();
+  accelerometer_bias_B_mps2_ += dx.segment<3>(6);
+  v_W_mps_ += dx.tail<3>();
 }
 
 AttitudeErrorStatistics::AttitudeErrorStatistics(double sample_interval_s) {

@@ -126,7 +126,9 @@ AttitudeEstimatorConfig ReadAttitudeEstimator(YamlMap& map, const ImuConfig& imu
   map.OptionalInRange("initial_accelerometer_bias_sigma_mps2",
                       &estimator.initial_accelerometer_bias_sigma_mps2, 0.0, 100.0);
   map.OptionalInRange("acceleration_sigma_mps2", &estimator.acceleration_sigma_mps2, 0.0, 100.0);
+  map.OptionalInRange("acceleration_correlation_s", &estimator.acceleration_correlation_s, 0.0, 1e4);
   map.OptionalInRange("acceleration_gate_mps2", &estimator.acceleration_gate_mps2, 0.0, 100.0);
+  map.OptionalInRange("initial_velocity_sigma_mps", &estimator.initial_velocity_sigma_mps, 0.0, 100.0);
   map.Finish();
   return estimator;
 }
@@ -138,6 +140,15 @@ HeadingSensorConfig ReadHeading(YamlMap& map) {
   map.OptionalInRange("rate_hz", &heading.rate_hz, 1e-3, kMaxRate_hz);
   map.Finish();
   return heading;
+}
+
+VelocitySensorConfig ReadVelocity(YamlMap& map) {
+  VelocitySensorConfig velocity;
+  map.OptionalInRange("sigma_mps", &velocity.sigma_mps, 0.0, 100.0);
+  if (!(velocity.sigma_mps > 0.0)) map.Fail("sigma_mps", "must be positive");
+  map.OptionalInRange("rate_hz", &velocity.rate_hz, 1e-3, kMaxRate_hz);
+  map.Finish();
+  return velocity;
 }
 
 OdometryConfig ReadOdometry(YamlMap& map) {
@@ -172,6 +183,11 @@ SensorsConfig ReadSensorsConfig(YamlMap& params) {
   if (params.Has("heading")) {
     YamlMap heading = params.Map("heading");
     config.heading = ReadHeading(heading);
+  }
+  if (params.Has("velocity")) {
+    YamlMap velocity = params.Map("velocity");
+    config.velocity = ReadVelocity(velocity);
+    config.attitude_estimator.velocity_aided = true;
   }
   if (params.Has("odometry")) {
     YamlMap odometry = params.Map("odometry");

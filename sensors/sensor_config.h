@@ -12,6 +12,7 @@
 #include "sensors/imu.h"
 #include "sensors/odometry.h"
 #include "sensors/uwb.h"
+#include "sensors/velocity_sensor.h"
 #include "sensors/wrench_filter.h"
 
 namespace iapsim::sensors {
@@ -22,12 +23,15 @@ struct SensorsConfig {
   WrenchFilterConfig wrench_filter;
   AttitudeEstimatorConfig attitude_estimator;  ///< assumes the IMU's noise, mounting and gravity by default
   std::optional<HeadingSensorConfig> heading;  ///< absent: no heading measurement, yaw is not aided
-  std::optional<OdometryConfig> odometry;      ///< absent: no platform odometry is published
+  /// present: the EKF is velocity-aided (attitude_estimator.velocity_aided); absent: gravity-referenced
+  std::optional<VelocitySensorConfig> velocity;
+  std::optional<OdometryConfig> odometry;  ///< absent: no platform odometry is published
 };
 
-/// Reads gravity_mps2 and the optional sections imu, uwb, wrench_filter, attitude_estimator, heading and
-/// odometry of `params`; the caller reads its other keys and calls params.Finish(). A uwb anchors_file is
-/// relative to the file of `params`. Throws bridge::ConfigError naming the file, line and key.
+/// Reads gravity_mps2 and the optional sections imu, uwb, wrench_filter, attitude_estimator, heading,
+/// velocity and odometry of `params`; the caller reads its other keys and calls params.Finish(). A uwb
+/// anchors_file is relative to the file of `params`. Throws bridge::ConfigError naming the file, line and
+/// key.
 SensorsConfig ReadSensorsConfig(bridge::YamlMap& params);
 
 /// An anchors file: `anchors: [{name, position_m: [x, y, z]}, ...]` in W (configs/sensors/*.yaml).

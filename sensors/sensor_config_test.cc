@@ -41,6 +41,8 @@ TEST(SensorConfig, DefaultsAreThePapers) {
   EXPECT_EQ(config.attitude_estimator.imu_noise.gyroscope_random_walk, table_vi.gyroscope_random_walk);
   EXPECT_FALSE(config.heading.has_value());
   EXPECT_FALSE(config.odometry.has_value());
+  EXPECT_FALSE(config.velocity.has_value());
+  EXPECT_FALSE(config.attitude_estimator.velocity_aided);
   EXPECT_EQ(Read("odometry: {}").odometry->noise.position_sigma_m, 0.0);  // the truth until told otherwise
 }
 
@@ -77,8 +79,11 @@ attitude_estimator:
   initial_gyroscope_bias_sigma_radps: 0.02
   initial_accelerometer_bias_sigma_mps2: 0.3
   acceleration_sigma_mps2: 1.0
+  acceleration_correlation_s: 2.0
   acceleration_gate_mps2: 3.0
+  initial_velocity_sigma_mps: 0.3
 heading: {sigma_deg: 5, rate_hz: 20}
+velocity: {sigma_mps: 0.05, rate_hz: 40}
 odometry:
   position_sigma_m: 0.02
   attitude_sigma_deg: 0.5
@@ -114,7 +119,13 @@ odometry:
   EXPECT_TRUE(estimator.q_BI.isApprox(config.imu.q_BI));  // the IMU's mounting, and its gravity
   EXPECT_EQ(estimator.gravity_mps2, 9.8);
   EXPECT_NEAR(estimator.initial_yaw_sigma_rad, 45.0 * M_PI / 180.0, 1e-15);
+  EXPECT_EQ(estimator.acceleration_correlation_s, 2.0);
   EXPECT_EQ(estimator.acceleration_gate_mps2, 3.0);
+  EXPECT_EQ(estimator.initial_velocity_sigma_mps, 0.3);
+  EXPECT_TRUE(estimator.velocity_aided);  // a velocity section makes it so
+  ASSERT_TRUE(config.velocity.has_value());
+  EXPECT_EQ(config.velocity->sigma_mps, 0.05);
+  EXPECT_EQ(config.velocity->rate_hz, 40.0);
   ASSERT_TRUE(config.heading.has_value());
   EXPECT_NEAR(config.heading->sigma_rad, 5.0 * M_PI / 180.0, 1e-15);
   EXPECT_EQ(config.heading->rate_hz, 20.0);
@@ -169,6 +180,7 @@ TEST(SensorConfig, ErrorsNameTheFileLineAndKey) {
   expect_error("attitude_estimator: {imu_noise: {table_vi: yes please}}",
                "attitude_estimator.imu_noise.table_vi");
   expect_error("heading: {sigma_deg: 0}", "heading.sigma_deg: must be positive");
+  expect_error("velocity: {sigma_mps: 0}", "velocity.sigma_mps: must be positive");
   expect_error("odometry: {correlation_time_s: -1}", "odometry.correlation_time_s: must be in");
   expect_error("odometry: {position_drift: 0.01}", "odometry.position_drift: unknown key");
 }

@@ -1,6 +1,7 @@
 // iapsim_sensors: the sensors of seed §V-D on the bus, a lockstep participant. From each vehicle state it
-// samples, per sub-aircraft, an IMU, its attitude EKF (a flight controller's attitude estimate) and a UWB
-// tag ranging to the scenario's anchors and to the other tags; it low-passes the platform's true contact
+// samples, per sub-aircraft, an IMU, its attitude EKF (a flight controller's attitude estimate; fed a
+// heading and a velocity when given `heading` and `velocity`) and a UWB tag ranging to the scenario's
+// anchors and to the other tags; it low-passes the platform's true contact
 // wrench (§VI-E); and, when given `odometry`, it reports the platform's pose and twist as an onboard odometry
 // would (sensors/odometry.h), for a controller that flies on an estimate. Every output is stamped with the
 // physics time of the state it derives from.
@@ -53,6 +54,7 @@ struct SubAircraftSensors {
   ImuModel imu;
   AttitudeEstimator estimator;
   std::optional<HeadingSensor> heading;
+  std::optional<VelocitySensor> velocity;
   UwbModel uwb;
   AttitudeErrorStatistics attitude_errors;
   uint64_t imu_samples = 0;
@@ -74,12 +76,16 @@ class SensorsNode : public bridge::Process {
     imu_every_ = Divider(params, "imu", config_.imu.rate_hz);
     uwb_every_ = Divider(params, "uwb", config_.uwb.rate_hz);
     if (config_.heading) heading_every_ = Divider(params, "heading", config_.heading->rate_hz);
+    if (config_.velocity) velocity_every_ = Divider(params, "velocity", config_.velocity->rate_hz);
     for (size_t i = 0; i < model.sub_aircraft.size(); ++i) {
       subs_.push_back(SubAircraftSensors{
           model.sub_aircraft[i].name, ImuModel(config_.imu, SeedFor(context.seed, i, 0)),
           AttitudeEstimator(config_.attitude_estimator),
           config_.heading
               ? std::optional<HeadingSensor>(HeadingSensor(*config_.heading, SeedFor(context.seed, i, 1)))
+              : std::nullopt,
+          config_.velocity
+              ? std::optional<VelocitySensor>(VelocitySensor(*config_.velocity, SeedFor(context.seed, i, 3)))
               : std::nullopt,
           UwbModel(config_.uwb.noise, SeedFor(context.seed, i, 2)),
           AttitudeErrorStatistics(static_cast<double>(imu_every_) * process_step_s_)});
@@ -177,6 +183,12 @@ class SensorsNode : public bridge::Process {
     if (sub.heading && k % heading_every_ == 0) {
       sub.estimator.UpdateHeading(sub.heading->Measure(truth.q_WB), sub.heading->config().sigma_rad);
     }
+    if (sub.velocity && k % velocity_every_ == 0) {
+      // the IMU's velocity: the body origin's plus ω × p_BI
+      const Eigen::Vector3d v_WI_W_mps =
+          bridge::FromMsg(body.twist_W.linear) + truth.q_WB * truth.w_WB_B_radps.cross(config_.imu.p_BI_m);
+      sub.estimator.UpdateVelocity(sub.velocity->Measure(v_WI_W_mps), sub.velocity->config().sigma_mps);
+    }
     sub.attitude_errors.Add(sub.estimator.q_WB(), truth.q_WB);
     sensor_msgs::Imu attitude = imu;
     attitude.header.frame_id = vehicle_name_ + "/" + sub.name;
@@ -273,7 +285,7 @@ class SensorsNode : public bridge::Process {
   double process_step_s_;
   std::string vehicle_name_;
   SensorsConfig config_;
-  uint64_t imu_every_ = 1, uwb_every_ = 1, heading_every_ = 1, odometry_every_ = 1;
+  uint64_t imu_every_ = 1, uwb_every_ = 1, heading_every_ = 1, velocity_every_ = 1, odometry_every_ = 1;
   std::vector<SubAircraftSensors> subs_;
   std::optional<WrenchFilter> filter_;
   std::optional<OdometryModel> odometry_;
