@@ -1,7 +1,7 @@
 #pragma once
 // An attitude EKF like a flight controller's (seed §VI-G, Fig. 18): a multiplicative (error-state) EKF on
 // the body attitude with gyroscope and accelerometer bias states (Solà, "Quaternion kinematics for the
-// error-state Kalman filter", 2017, §7), propagated with the gyroscope. Two ways to see the tilt:
+// error-state Kalman filter", 2017), propagated with the gyroscope. Two ways to see the tilt:
 // - unaided: the accelerometer as a gravity reference, the body's own acceleration taken as noise. A
 //   vehicle's sustained accelerations then read as tilt (a multirotor's accelerometer sees its thrust, not
 //   gravity), and the bias states take up what the noise model cannot explain;
