@@ -11,7 +11,7 @@
 namespace iapsim::sensors {
 
 struct VelocitySensorConfig {
-  double sigma_mps = 0.1;  ///< PX4's EKF2_EVV_NOISE default
+  double sigma_mps = 0.1;  ///< PX4's EKF2_EVV_NOISE default (src/modules/ekf2/params_external_vision.yaml)
   double rate_hz = 20.0;   ///< for the caller's schedule
 };
 
