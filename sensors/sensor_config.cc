@@ -193,6 +193,20 @@ SensorsConfig ReadSensorsConfig(YamlMap& params) {
     YamlMap odometry = params.Map("odometry");
     config.odometry = ReadOdometry(odometry);
   }
+  if (params.Has("platform_imu")) {
+    YamlMap platform = params.Map("platform_imu");
+    const bool rate_given = platform.Has("rate_hz");
+    config.platform_imu = ReadImu(platform, gravity_mps2);
+    if (!rate_given) config.platform_imu->rate_hz = config.imu.rate_hz;
+    if (config.platform_imu->rate_hz != config.imu.rate_hz) {
+      platform.Fail("rate_hz", "must be the imu section's " + std::to_string(config.imu.rate_hz) +
+                                   " Hz: the platform's EKF takes its aiding on the sub-aircraft's schedule");
+    }
+    // the sub-aircraft's filter settings (velocity-aided where they are), with this IMU's noise and mounting
+    config.platform_attitude_estimator = config.attitude_estimator;
+    config.platform_attitude_estimator->imu_noise = config.platform_imu->noise;
+    config.platform_attitude_estimator->q_BI = config.platform_imu->q_BI;
+  }
   return config;
 }
 

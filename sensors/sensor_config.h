@@ -26,12 +26,16 @@ struct SensorsConfig {
   /// present: the EKF is velocity-aided (attitude_estimator.velocity_aided); absent: gravity-referenced
   std::optional<VelocitySensorConfig> velocity;
   std::optional<OdometryConfig> odometry;  ///< absent: no platform odometry is published
+  /// present: the platform carries this IMU and an attitude EKF of its own (the IAP computer's), with
+  /// platform_attitude_estimator's settings: attitude_estimator's, assuming this IMU's noise and mounting
+  std::optional<ImuConfig> platform_imu;
+  std::optional<AttitudeEstimatorConfig> platform_attitude_estimator;
 };
 
 /// Reads gravity_mps2 and the optional sections imu, uwb, wrench_filter, attitude_estimator, heading,
-/// velocity and odometry of `params`; the caller reads its other keys and calls params.Finish(). A uwb
-/// anchors_file is relative to the file of `params`. Throws bridge::ConfigError naming the file, line and
-/// key.
+/// velocity, odometry and platform_imu of `params`; the caller reads its other keys and calls
+/// params.Finish(). A uwb anchors_file is relative to the file of `params`. Throws bridge::ConfigError naming
+/// the file, line and key.
 SensorsConfig ReadSensorsConfig(bridge::YamlMap& params);
 
 /// An anchors file: `anchors: [{name, position_m: [x, y, z]}, ...]` in W (configs/sensors/*.yaml).

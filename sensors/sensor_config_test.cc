@@ -43,6 +43,7 @@ TEST(SensorConfig, DefaultsAreThePapers) {
   EXPECT_FALSE(config.odometry.has_value());
   EXPECT_FALSE(config.velocity.has_value());
   EXPECT_FALSE(config.attitude_estimator.velocity_aided);
+  EXPECT_FALSE(config.platform_imu.has_value());
   EXPECT_EQ(Read("odometry: {}").odometry->noise.position_sigma_m, 0.0);  // the truth until told otherwise
 }
 
@@ -146,6 +147,31 @@ TEST(SensorConfig, EstimatorAssumesTheImuNoiseUnlessTold) {
   EXPECT_EQ(config.imu.noise.gyroscope_noise_density, 0.004);
   EXPECT_EQ(config.imu.noise.accelerometer_noise_density, 0.0);  // given densities replace Table VI whole
   EXPECT_EQ(config.attitude_estimator.imu_noise.gyroscope_noise_density, 0.004);
+}
+
+// The platform's EKF is the sub-aircraft's (aided as they are) on a model of the platform's own IMU, which
+// samples on the sub-aircraft's IMUs' schedule.
+TEST(SensorConfig, ThePlatformsEstimatorHasTheSubAircraftSettingsAndItsOwnImu) {
+  const SensorsConfig config = Read(R"(
+imu: {rate_hz: 400}
+attitude_estimator: {acceleration_correlation_s: 2.0}
+velocity: {sigma_mps: 0.1}
+platform_imu: {gyroscope_noise_density: 0.004, mounting: {rpy_deg: [0, 0, 90]}})");
+  ASSERT_TRUE(config.platform_imu.has_value());
+  ASSERT_TRUE(config.platform_attitude_estimator.has_value());
+  EXPECT_EQ(config.platform_imu->rate_hz, 400.0);
+  const AttitudeEstimatorConfig& platform = *config.platform_attitude_estimator;
+  EXPECT_EQ(platform.imu_noise.gyroscope_noise_density, 0.004);
+  EXPECT_EQ(config.attitude_estimator.imu_noise.gyroscope_noise_density,
+            TableViNoise().gyroscope_noise_density);
+  EXPECT_LT(platform.q_BI.angularDistance(
+                Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()))),
+            1e-12);
+  EXPECT_EQ(platform.acceleration_correlation_s, 2.0);
+  EXPECT_TRUE(platform.velocity_aided);
+  EXPECT_NE(ErrorOf("imu: {rate_hz: 400}\nplatform_imu: {rate_hz: 200}")
+                .find("platform_imu.rate_hz: must be the imu section's"),
+            std::string::npos);
 }
 
 TEST(SensorConfig, ShippedAnchorFilesHoldTablesXAndXi) {

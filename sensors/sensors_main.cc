@@ -1,7 +1,8 @@
 // iapsim_sensors: the sensors of seed §V-D on the bus, a lockstep participant. From each vehicle state it
 // samples, per sub-aircraft, an IMU, its attitude EKF (a flight controller's attitude estimate; fed a
 // heading and a velocity when given `heading` and `velocity`) and a UWB tag ranging to the scenario's
-// anchors and to the other tags; it low-passes the platform's true contact
+// anchors and to the other tags; with `platform_imu`, an IMU on the platform and its own attitude EKF (the
+// IAP computer's); it low-passes the platform's true contact
 // wrench (§VI-E); and, when given `odometry`, it reports the platform's pose and twist as an onboard odometry
 // would (sensors/odometry.h), for a controller that flies on an estimate. Every output is stamped with the
 // physics time of the state it derives from.
@@ -10,6 +11,7 @@
 //   publishes   /<vehicle>/<sub>/imu             sensor_msgs/Imu (no orientation: covariance[0] = −1)
 //               /<vehicle>/<sub>/attitude        sensor_msgs/Imu (EKF orientation R_WS, bias-corrected rate)
 //               /<vehicle>/<sub>/uwb             iapsim_msgs/UwbRanges (received ranges only)
+//               /<vehicle>/imu, /<vehicle>/attitude   the same for the platform (with `platform_imu`)
 //               /<vehicle>/wrench/filtered       geometry_msgs/WrenchStamped (in P, about its origin)
 //               /<vehicle>/odometry              nav_msgs/Odometry (pose in W, twist in P; with `odometry`)
 //
@@ -49,15 +51,25 @@ BodyKinematics KinematicsOf(const iapsim_msgs::BodyState& body) {
   return truth;
 }
 
-struct SubAircraftSensors {
-  std::string name;
+// An IMU on one body of the vehicle and the attitude EKF that reads it, with the EKF's aiding sensors.
+struct InertialSensors {
+  std::string topic_prefix;  // /<vehicle>/<sub> or, on the platform, /<vehicle>
+  std::string frame_id;      // the body's frame
+  std::size_t body;          // in IapState::bodies
+  Eigen::Vector3d p_BI_m;    // the IMU's mounting
+  Eigen::Quaterniond q_BI;
   ImuModel imu;
   AttitudeEstimator estimator;
   std::optional<HeadingSensor> heading;
   std::optional<VelocitySensor> velocity;
-  UwbModel uwb;
   AttitudeErrorStatistics attitude_errors;
   uint64_t imu_samples = 0;
+};
+
+struct SubAircraftSensors {
+  std::string name;
+  InertialSensors inertial;
+  UwbModel uwb;
   uint64_t uwb_ranges = 0;
   uint64_t uwb_dropped = 0;
 };
@@ -78,22 +90,23 @@ class SensorsNode : public bridge::Process {
     if (config_.heading) heading_every_ = Divider(params, "heading", config_.heading->rate_hz);
     if (config_.velocity) velocity_every_ = Divider(params, "velocity", config_.velocity->rate_hz);
     for (size_t i = 0; i < model.sub_aircraft.size(); ++i) {
+      const std::string& name = model.sub_aircraft[i].name;
       subs_.push_back(SubAircraftSensors{
-          model.sub_aircraft[i].name, ImuModel(config_.imu, SeedFor(context.seed, i, 0)),
-          AttitudeEstimator(config_.attitude_estimator),
-          config_.heading
-              ? std::optional<HeadingSensor>(HeadingSensor(*config_.heading, SeedFor(context.seed, i, 1)))
-              : std::nullopt,
-          config_.velocity
-              ? std::optional<VelocitySensor>(VelocitySensor(*config_.velocity, SeedFor(context.seed, i, 3)))
-              : std::nullopt,
-          UwbModel(config_.uwb.noise, SeedFor(context.seed, i, 2)),
-          AttitudeErrorStatistics(static_cast<double>(imu_every_) * process_step_s_)});
+          name,
+          MakeInertialSensors("/" + vehicle_name_ + "/" + name, vehicle_name_ + "/" + name, i + 1,
+                              config_.imu, config_.attitude_estimator, context.seed, i),
+          UwbModel(config_.uwb.noise, SeedFor(context.seed, i, 2))});
     }
     filter_.emplace(config_.wrench_filter, process_step_s_);
     if (config_.odometry) {
       odometry_every_ = Divider(params, "odometry", config_.odometry->rate_hz);
       odometry_.emplace(*config_.odometry, SeedFor(context.seed, model.sub_aircraft.size(), 0));
+    }
+    // the instance after the odometry's: adding the platform's IMU leaves every other stream as it was
+    if (config_.platform_imu) {
+      platform_.emplace(MakeInertialSensors("/" + vehicle_name_, vehicle_name_ + "/P", 0,
+                                            *config_.platform_imu, *config_.platform_attitude_estimator,
+                                            context.seed, model.sub_aircraft.size() + 1));
     }
   }
 
@@ -111,10 +124,10 @@ class SensorsNode : public bridge::Process {
     if (!have_state_ || state_.bodies.size() != subs_.size() + 1) return;  // realtime: nothing yet
     const uint64_t k = steps_++;
     for (size_t i = 0; i < subs_.size(); ++i) {
-      const iapsim_msgs::BodyState& body = state_.bodies[i + 1];
-      if (k % imu_every_ == 0) SampleImu(subs_[i], body, k);
+      if (k % imu_every_ == 0) SampleImu(subs_[i].inertial, k);
       if (k % uwb_every_ == 0) SampleUwb(i);
     }
+    if (platform_ && k % imu_every_ == 0) SampleImu(*platform_, k);
     FilterWrench();
     if (odometry_ && k % odometry_every_ == 0) SampleOdometry();
   }
@@ -122,16 +135,11 @@ class SensorsNode : public bridge::Process {
   void Finish(nlohmann::json* report) override {
     for (const auto& sub : subs_) {
       nlohmann::json& out = (*report)["sub_aircraft"][sub.name];
-      out["imu_samples"] = sub.imu_samples;
+      Report(sub.inertial, &out);
       out["uwb_ranges"] = sub.uwb_ranges;
       out["uwb_dropped"] = sub.uwb_dropped;
-      const Eigen::Vector3d rms_deg = sub.attitude_errors.RootMeanSquare_rad() * kRadToDeg;
-      const Eigen::Vector3d max_deg = sub.attitude_errors.MaxAbs_rad() * kRadToDeg;
-      out["attitude_error_rms_deg"] = {{"roll", rms_deg.x()}, {"pitch", rms_deg.y()}, {"yaw", rms_deg.z()}};
-      out["attitude_error_max_deg"] = {{"roll", max_deg.x()}, {"pitch", max_deg.y()}, {"yaw", max_deg.z()}};
-      const Eigen::Vector3d tau_s = sub.attitude_errors.CorrelationTime_s();  // NaN: null in the JSON
-      out["attitude_error_correlation_s"] = {{"roll", tau_s.x()}, {"pitch", tau_s.y()}, {"yaw", tau_s.z()}};
     }
+    if (platform_) Report(*platform_, &(*report)["platform"]);
     if (odometry_) {
       nlohmann::json& out = (*report)["odometry"];
       const double n = static_cast<double>(std::max<uint64_t>(odometry_samples_, 1));
@@ -161,18 +169,50 @@ class SensorsNode : public bridge::Process {
     return "/" + vehicle_name_ + "/" + sub + "/" + what;
   }
 
-  void SampleImu(SubAircraftSensors& sub, const iapsim_msgs::BodyState& body, uint64_t k) {
+  // `instance` seeds its IMU (kind 0), heading (1) and velocity (3) streams
+  InertialSensors MakeInertialSensors(std::string topic_prefix, std::string frame_id, std::size_t body,
+                                      const ImuConfig& imu, const AttitudeEstimatorConfig& estimator,
+                                      uint64_t seed, uint64_t instance) const {
+    return InertialSensors{
+        std::move(topic_prefix),
+        std::move(frame_id),
+        body,
+        imu.p_BI_m,
+        estimator.q_BI,
+        ImuModel(imu, SeedFor(seed, instance, 0)),
+        AttitudeEstimator(estimator),
+        config_.heading
+            ? std::optional<HeadingSensor>(HeadingSensor(*config_.heading, SeedFor(seed, instance, 1)))
+            : std::nullopt,
+        config_.velocity
+            ? std::optional<VelocitySensor>(VelocitySensor(*config_.velocity, SeedFor(seed, instance, 3)))
+            : std::nullopt,
+        AttitudeErrorStatistics(static_cast<double>(imu_every_) * process_step_s_)};
+  }
+
+  static void Report(const InertialSensors& sensors, nlohmann::json* out) {
+    (*out)["imu_samples"] = sensors.imu_samples;
+    const Eigen::Vector3d rms_deg = sensors.attitude_errors.RootMeanSquare_rad() * kRadToDeg;
+    const Eigen::Vector3d max_deg = sensors.attitude_errors.MaxAbs_rad() * kRadToDeg;
+    (*out)["attitude_error_rms_deg"] = {{"roll", rms_deg.x()}, {"pitch", rms_deg.y()}, {"yaw", rms_deg.z()}};
+    (*out)["attitude_error_max_deg"] = {{"roll", max_deg.x()}, {"pitch", max_deg.y()}, {"yaw", max_deg.z()}};
+    const Eigen::Vector3d tau_s = sensors.attitude_errors.CorrelationTime_s();  // NaN: null in the JSON
+    (*out)["attitude_error_correlation_s"] = {{"roll", tau_s.x()}, {"pitch", tau_s.y()}, {"yaw", tau_s.z()}};
+  }
+
+  void SampleImu(InertialSensors& sub, uint64_t k) {
+    const iapsim_msgs::BodyState& body = state_.bodies[sub.body];
     const double dt_s = static_cast<double>(imu_every_) * process_step_s_;
     const BodyKinematics truth = KinematicsOf(body);
     const ImuSample sample = sub.imu.Sample(truth, dt_s);
     ++sub.imu_samples;
     sensor_msgs::Imu imu;
     imu.header.stamp = state_.header.stamp;
-    imu.header.frame_id = vehicle_name_ + "/" + sub.name + "/imu";
+    imu.header.frame_id = sub.frame_id + "/imu";
     imu.orientation_covariance[0] = -1.0;  // ROS: no orientation in this message
     imu.angular_velocity = bridge::ToVector3Msg(sample.w_I_radps);
     imu.linear_acceleration = bridge::ToVector3Msg(sample.f_I_mps2);
-    bus_->Publish(Topic(sub.name, "imu"), imu);
+    bus_->Publish(sub.topic_prefix + "/imu", imu);
 
     // the flight controller's estimate: started level-aware from gravity with the true heading (no compass)
     if (!sub.estimator.initialized()) {
@@ -186,20 +226,20 @@ class SensorsNode : public bridge::Process {
     if (sub.velocity && k % velocity_every_ == 0) {
       // the IMU's velocity: the body origin's plus ω × p_BI
       const Eigen::Vector3d v_WI_W_mps =
-          bridge::FromMsg(body.twist_W.linear) + truth.q_WB * truth.w_WB_B_radps.cross(config_.imu.p_BI_m);
+          bridge::FromMsg(body.twist_W.linear) + truth.q_WB * truth.w_WB_B_radps.cross(sub.p_BI_m);
       sub.estimator.UpdateVelocity(sub.velocity->Measure(v_WI_W_mps), sub.velocity->config().sigma_mps);
     }
     sub.attitude_errors.Add(sub.estimator.q_WB(), truth.q_WB);
     sensor_msgs::Imu attitude = imu;
-    attitude.header.frame_id = vehicle_name_ + "/" + sub.name;
+    attitude.header.frame_id = sub.frame_id;
     attitude.orientation = bridge::ToQuaternionMsg(sub.estimator.q_WB());
     const Eigen::Matrix3d attitude_covariance = sub.estimator.covariance().topLeftCorner<3, 3>();
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) attitude.orientation_covariance[3 * r + c] = attitude_covariance(r, c);
     }
-    attitude.angular_velocity = bridge::ToVector3Msg(config_.attitude_estimator.q_BI * sample.w_I_radps -
-                                                     sub.estimator.gyroscope_bias_B_radps());
-    bus_->Publish(Topic(sub.name, "attitude"), attitude);
+    attitude.angular_velocity =
+        bridge::ToVector3Msg(sub.q_BI * sample.w_I_radps - sub.estimator.gyroscope_bias_B_radps());
+    bus_->Publish(sub.topic_prefix + "/attitude", attitude);
   }
 
   void SampleUwb(size_t i) {
@@ -287,6 +327,7 @@ class SensorsNode : public bridge::Process {
   SensorsConfig config_;
   uint64_t imu_every_ = 1, uwb_every_ = 1, heading_every_ = 1, velocity_every_ = 1, odometry_every_ = 1;
   std::vector<SubAircraftSensors> subs_;
+  std::optional<InertialSensors> platform_;
   std::optional<WrenchFilter> filter_;
   std::optional<OdometryModel> odometry_;
   uint64_t odometry_samples_ = 0;

@@ -193,6 +193,26 @@ Truth ReadTruth(const bridge::BagReader& bag, const DatasetInput& in) {
   return truth;
 }
 
+// The platform's own attitude estimate by stamp, where the run's sensors carried a platform_imu (the centre
+// takes its tilt and rate, as the vio process's platform instance does).
+vio::PlatformAttitudes ReadPlatformAttitudes(const bridge::BagReader& bag, const DatasetInput& in) {
+  vio::PlatformAttitudes attitudes;
+  if (in.setup.platform_attitude_topic.empty()) return attitudes;
+  sensor_msgs::Imu attitude;
+  std::string error;
+  bag.ForEach({in.setup.platform_attitude_topic}, [&](const bridge::BagMessage& m) {
+    if (!bridge::Decode(m.bytes, &attitude, &error))
+      throw DatasetError(bag.path() + ": " + m.topic + ": " + error);
+    attitudes[bridge::ToNanoseconds(attitude.header.stamp)] = vio::PlatformAttitudeOf(attitude);
+    return true;
+  });
+  if (attitudes.empty()) {
+    throw DatasetError(bag.path() + ": no messages on " + in.setup.platform_attitude_topic +
+                       " (the run's sensors process has a platform_imu, whose attitude the centre takes)");
+  }
+  return attitudes;
+}
+
 using Inputs = std::vector<std::function<void(vio::Estimator&)>>;
 
 struct PendingPair {
@@ -694,10 +714,11 @@ struct CentreResult {
 };
 
 // The platform pose at each stamp every sub-aircraft has an estimate for: the rigid transform that best
-// carries the joints d_i (in P) onto the estimated joints (in W), X_WP = UmeyamaRigid(d, J); its truth from
-// the platform's ground-truth odometry.
+// carries the joints d_i (in P) onto the estimated joints (in W), X_WP = UmeyamaRigid(d, J), its tilt the
+// platform's own attitude estimate's where the run has one; its truth from the platform's ground-truth
+// odometry.
 CentreResult EstimateCentre(const DatasetInput& in, const std::vector<SubAircraftResult>& results,
-                            const Truth& truth) {
+                            const Truth& truth, const vio::PlatformAttitudes& attitudes) {
   CentreResult out;
   std::map<int64_t, std::vector<nav_msgs::Odometry>> at;
   for (const SubAircraftResult& r : results) {
@@ -705,8 +726,16 @@ CentreResult EstimateCentre(const DatasetInput& in, const std::vector<SubAircraf
   }
   for (const auto& [t_ns, subs] : at) {
     if (subs.size() != in.setup.joints_P.size()) continue;
+    const vio::PlatformAttitude* attitude = nullptr;
+    if (!in.setup.platform_attitude_topic.empty()) {
+      attitude = vio::PlatformAttitudeAt(attitudes, t_ns);
+      if (!attitude) {
+        throw DatasetError(in.bag_path + ": no message on " + in.setup.platform_attitude_topic +
+                           " at or before t = " + std::to_string(static_cast<double>(t_ns) * 1e-9) + " s");
+      }
+    }
     const nav_msgs::Odometry platform =
-        vio::PlatformOdometryOf(in.setup.joints_P, subs, in.setup.vehicle_name);
+        vio::PlatformOdometryOf(in.setup.joints_P, subs, in.setup.vehicle_name, attitude);
     out.estimate.push_back(Stamped(t_ns, platform.pose.pose));
   }
   const auto platform = truth.find(in.setup.platform_truth_topic);
@@ -752,7 +781,8 @@ Variant MakeVariant(const std::string& name, const VioOfflineArgs& args, const s
 // Writes a variant's TUM files and vio.json, prints its table and returns the report. `wall_s` is the pass's,
 // which estimated every variant of `pass` (names) at once.
 nlohmann::json Report(const Variant& variant, const std::vector<SubAircraftResult>& results,
-                      const Truth& truth, double wall_s, const std::vector<std::string>& pass) {
+                      const Truth& truth, const vio::PlatformAttitudes& attitudes, double wall_s,
+                      const std::vector<std::string>& pass) {
   const DatasetInput& in = variant.in;
   const std::string& mode = variant.args.mode;
   nlohmann::json report = {{"mode", mode}, {"bag", in.bag_path}, {"scenario", in.scenario_path}};
@@ -787,7 +817,7 @@ nlohmann::json Report(const Variant& variant, const std::vector<SubAircraftResul
   if (!in.setup.joints_P.empty()) {
     const std::string centre =
         in.setup.platform_truth_topic.substr(1, in.setup.platform_truth_topic.rfind('/') - 1) + "/platform";
-    const CentreResult c = EstimateCentre(in, results, truth);
+    const CentreResult c = EstimateCentre(in, results, truth, attitudes);
     bridge::AbsoluteTrajectoryError ate, ate_aligned;
     report["centre"] = WriteTrajectory(variant.out_dir, centre, c.estimate, c.truth, &ate, &ate_aligned);
     report["centre"]["body"] = centre;
@@ -821,6 +851,7 @@ std::vector<nlohmann::json> RunPass(const std::vector<Variant>& variants) {
     for (const vio::SubAircraftSetup& sub : variant.in.setup.subs) CheckBag(bag, sub);
   }
   const Truth truth = ReadTruth(bag, in);
+  const vio::PlatformAttitudes attitudes = ReadPlatformAttitudes(bag, in);
   const std::vector<std::vector<SubAircraftResult>> results = EstimateAll(bag, variants, truth);
   const double wall_s = Milliseconds(start) * 1e-3;
 
@@ -828,7 +859,7 @@ std::vector<nlohmann::json> RunPass(const std::vector<Variant>& variants) {
   for (const Variant& variant : variants) pass.push_back(variant.name);
   std::vector<nlohmann::json> reports;
   for (std::size_t v = 0; v < variants.size(); ++v)
-    reports.push_back(Report(variants[v], results[v], truth, wall_s, pass));
+    reports.push_back(Report(variants[v], results[v], truth, attitudes, wall_s, pass));
   return reports;
 }
 

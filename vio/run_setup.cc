@@ -1,11 +1,13 @@
 #include "vio/run_setup.h"
 
 #include <algorithm>
+#include <iterator>
 #include <set>
 
 #include "bridge/eigen_msgs.h"
 #include "bridge/trajectory_error.h"
 #include "model/vehicle.h"
+#include "sensors/attitude_estimator.h"
 #include "sensors/sensor_config.h"
 #include "vio/so3.h"
 
@@ -111,6 +113,10 @@ RunSetup ReadRunSetup(const bridge::Scenario& scenario, const std::string& mode,
   if (on_vehicle == vehicle.sub_aircraft.size() && on_vehicle == setup.subs.size() && on_vehicle >= 2) {
     for (const SubAircraftSetup& sub : setup.subs) setup.joints_P.push_back(*sub.joint_P);
     setup.platform_truth_topic = "/" + setup.vehicle_name + "/odom";
+    if (sensors_config.platform_imu) {
+      setup.platform_attitude_topic = "/" + setup.vehicle_name + "/attitude";
+      setup.platform_attitude_process = sensors_process;
+    }
   }
   return setup;
 }
@@ -148,28 +154,58 @@ nav_msgs::Odometry OdometryOf(const Estimate& estimate, const SubAircraftSetup& 
 }
 
 nav_msgs::Odometry PlatformOdometryOf(const std::vector<Eigen::Vector3d>& joints_P,
-                                      const std::vector<nav_msgs::Odometry>& subs,
-                                      const std::string& vehicle) {
+                                      const std::vector<nav_msgs::Odometry>& subs, const std::string& vehicle,
+                                      const PlatformAttitude* attitude) {
+  std::vector<PeerJoint> joints;
   std::vector<Eigen::Vector3d> joints_W;
-  for (const nav_msgs::Odometry& sub : subs) joints_W.push_back(PeerJointOf(sub).p_WJ_m);
-  const Eigen::Isometry3d X_WP = bridge::UmeyamaRigid(joints_P, joints_W);
-  // [I  −[r_i]×] [v_P; ω] = v_i for every joint, r_i = R_WP d_i
-  Eigen::MatrixXd A(3 * subs.size(), 6);
-  Eigen::VectorXd b(3 * subs.size());
-  for (std::size_t i = 0; i < subs.size(); ++i) {
-    A.block<3, 3>(3 * i, 0).setIdentity();
-    A.block<3, 3>(3 * i, 3) = -Skew(X_WP.linear() * joints_P[i]);
-    b.segment<3>(3 * i) = PeerJointOf(subs[i]).v_WJ_W_mps;
+  for (const nav_msgs::Odometry& sub : subs) {
+    joints.push_back(PeerJointOf(sub));
+    joints_W.push_back(joints.back().p_WJ_m);
   }
-  const Eigen::Matrix<double, 6, 1> twist_W = A.colPivHouseholderQr().solve(b);
+  Eigen::Isometry3d X_WP = bridge::UmeyamaRigid(joints_P, joints_W);
+  Eigen::Vector3d v_W, w_W;
+  if (attitude) {
+    const Eigen::Vector3d tilt_rpy_rad = sensors::RollPitchYaw_rad(attitude->q_WP);
+    const double yaw_rad = sensors::RollPitchYaw_rad(Eigen::Quaterniond(X_WP.linear())).z();
+    X_WP.linear() = model::RotationFromRpy(Eigen::Vector3d(tilt_rpy_rad.x(), tilt_rpy_rad.y(), yaw_rad));
+    w_W = X_WP.linear() * attitude->w_P_radps;
+    X_WP.translation().setZero();
+    v_W.setZero();
+    for (std::size_t i = 0; i < subs.size(); ++i) {
+      const Eigen::Vector3d r_W = X_WP.linear() * joints_P[i];
+      X_WP.translation() += (joints[i].p_WJ_m - r_W) / static_cast<double>(subs.size());
+      v_W += (joints[i].v_WJ_W_mps - w_W.cross(r_W)) / static_cast<double>(subs.size());
+    }
+  } else {
+    // [I  −[r_i]×] [v_P; ω] = v_i for every joint, r_i = R_WP d_i
+    Eigen::MatrixXd A(3 * subs.size(), 6);
+    Eigen::VectorXd b(3 * subs.size());
+    for (std::size_t i = 0; i < subs.size(); ++i) {
+      A.block<3, 3>(3 * i, 0).setIdentity();
+      A.block<3, 3>(3 * i, 3) = -Skew(X_WP.linear() * joints_P[i]);
+      b.segment<3>(3 * i) = joints[i].v_WJ_W_mps;
+    }
+    const Eigen::Matrix<double, 6, 1> twist_W = A.colPivHouseholderQr().solve(b);
+    v_W = twist_W.head<3>();
+    w_W = twist_W.tail<3>();
+  }
   nav_msgs::Odometry odometry;
   odometry.header = subs.front().header;
   odometry.child_frame_id = vehicle + "/platform";
   odometry.pose.pose.position = bridge::ToPointMsg(X_WP.translation());
   odometry.pose.pose.orientation = bridge::ToQuaternionMsg(Eigen::Quaterniond(X_WP.linear()));
-  odometry.twist.twist.linear = bridge::ToVector3Msg(X_WP.linear().transpose() * twist_W.head<3>());
-  odometry.twist.twist.angular = bridge::ToVector3Msg(X_WP.linear().transpose() * twist_W.tail<3>());
+  odometry.twist.twist.linear = bridge::ToVector3Msg(X_WP.linear().transpose() * v_W);
+  odometry.twist.twist.angular = bridge::ToVector3Msg(X_WP.linear().transpose() * w_W);
   return odometry;
+}
+
+PlatformAttitude PlatformAttitudeOf(const sensor_msgs::Imu& attitude) {
+  return {bridge::FromMsg(attitude.orientation).normalized(), bridge::FromMsg(attitude.angular_velocity)};
+}
+
+const PlatformAttitude* PlatformAttitudeAt(const PlatformAttitudes& attitudes, int64_t t_ns) {
+  const auto after = attitudes.upper_bound(t_ns);
+  return after == attitudes.begin() ? nullptr : &std::prev(after)->second;
 }
 
 NavState ImuStateOf(const nav_msgs::Odometry& odometry, const Eigen::Isometry3d& X_BI) {

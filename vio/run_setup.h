@@ -5,6 +5,7 @@
 // sub-aircraft shares with the others (seed Fig. 4), in one form for both.
 
 #include <nav_msgs/Odometry.h>
+#include <sensor_msgs/Imu.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -49,6 +50,9 @@ struct RunSetup {
   /// vehicle is estimated (the centre comes from all of them).
   std::vector<Eigen::Vector3d> joints_P;
   std::string platform_truth_topic;
+  /// with joints_P, where the sensors process carries a platform_imu: its attitude EKF's estimate, whose tilt
+  /// and rate the platform's estimate takes (PlatformOdometryOf), and that process
+  std::string platform_attitude_topic, platform_attitude_process;
 };
 
 /// The sub-aircraft of `scenario` with a body-mounted stereo camera (those of `bodies` only, when given) for
@@ -63,13 +67,31 @@ EstimatorOptions EstimatorOptionsFor(const RunSetup& setup, std::size_t i, const
 
 /// The odometry a sub-aircraft shares: its body's pose in W and twist in B (ROS), stamped t_ns.
 nav_msgs::Odometry OdometryOf(const Estimate& estimate, const SubAircraftSetup& sub, int64_t t_ns);
+/// The platform's own attitude estimate: an IMU on it and its EKF (the sensors process's platform_imu).
+struct PlatformAttitude {
+  Eigen::Quaterniond q_WP = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d w_P_radps = Eigen::Vector3d::Zero();  ///< bias-corrected
+};
+/// By stamp, as the sensors process publishes them (sensor_msgs/Imu on RunSetup::platform_attitude_topic).
+using PlatformAttitudes = std::map<int64_t, PlatformAttitude>;
+PlatformAttitude PlatformAttitudeOf(const sensor_msgs::Imu& attitude);
+/// The newest at or before t_ns (the sensors process samples at every IMU step, which every stamp of the
+/// sub-aircraft's estimates is); nullptr when there is none.
+const PlatformAttitude* PlatformAttitudeAt(const PlatformAttitudes& attitudes, int64_t t_ns);
+
 /// The platform's odometry from every sub-aircraft's at one stamp (`subs` in the order of `joints_P`, the
 /// joints d_i in P): the pose is the rigid transform that best carries the joints onto the estimated ones
 /// (UmeyamaRigid; a sub-aircraft's origin is its joint), the twist the rigid-body velocity that best
 /// explains theirs (v_i = v_P + ω × R_WP d_i, least squares), in P. Frame ids `vehicle`/platform in W.
+///
+/// With `attitude`, the roll and pitch are the platform's own estimate's and the rate its gyroscope's; the
+/// yaw stays the fit's, and the position and velocity are refitted with that attitude and rate (the mean
+/// of J_i − R_WP d_i and of v_i − ω × R_WP d_i). Gravity makes the tilt observable to both, so the two agree
+/// on it up to their errors, which for the fit are the sub-aircraft's height drifts over the joints' spacing;
+/// the yaw of a gyroscope-propagated EKF drifts in its own way, and the positions would not share it.
 nav_msgs::Odometry PlatformOdometryOf(const std::vector<Eigen::Vector3d>& joints_P,
-                                      const std::vector<nav_msgs::Odometry>& subs,
-                                      const std::string& vehicle);
+                                      const std::vector<nav_msgs::Odometry>& subs, const std::string& vehicle,
+                                      const PlatformAttitude* attitude = nullptr);
 
 /// The IMU's state in a body's odometry (the ground truth that starts an estimate).
 NavState ImuStateOf(const nav_msgs::Odometry& odometry, const Eigen::Isometry3d& X_BI);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "bridge/eigen_msgs.h"
+#include "sensors/attitude_estimator.h"
 #include "vio/so3.h"
 #include "vio/testing/synthetic.h"
 
@@ -50,6 +51,52 @@ TEST(RunSetupTest, ThePlatformFromItsJointsIsTheRigidMotion) {
         (bridge::FromMsg(platform.twist.twist.angular) - KnownMotion::Kinematics(t).w_WB_B_radps).norm(),
         1e-12);
   }
+}
+
+// One sub-aircraft's height drift tilts the platform fitted to the joints; with the platform's own attitude
+// estimate, the tilt and the rate are that estimate's, the yaw stays the fit's, and the drift moves the
+// position by its mean over the joints only (these joints are centred on P's origin).
+TEST(RunSetupTest, ThePlatformsOwnAttitudeTakesTheTiltASubAircraftsHeightDriftGaveTheFit) {
+  const std::vector<Eigen::Vector3d> joints_P{{0.48, 0.0, 0.0}, {-0.24, 0.416, 0.0}, {-0.24, -0.416, 0.0}};
+  const Eigen::Vector3d drift_W_m(0.0, 0.0, -0.05);
+  const double t = 1.1;
+  std::vector<nav_msgs::Odometry> subs;
+  for (std::size_t i = 0; i < joints_P.size(); ++i) {
+    subs.push_back(JointBodyOdometry(t, joints_P[i], ExpQuaternion(Eigen::Vector3d(0.2, 0.1 * i, -0.3))));
+    if (i == 1) {
+      subs.back().pose.pose.position =
+          bridge::ToPointMsg(bridge::FromMsg(subs.back().pose.pose.position) + drift_W_m);
+    }
+  }
+  const Eigen::Isometry3d X_WP = KnownMotion::Pose(t);
+  const Eigen::Quaterniond q_WP(X_WP.linear());
+  const Eigen::Vector3d w_P = KnownMotion::Kinematics(t).w_WB_B_radps;
+  // the tilt error: the angle between the estimated and the true direction of gravity in P (what an
+  // accelerometer observes; it does not depend on the yaw)
+  const auto tilt_error = [&](const nav_msgs::Odometry& platform) {
+    const Eigen::Quaterniond q = bridge::FromMsg(platform.pose.pose.orientation);
+    const Eigen::Vector3d g_estimate_P = q.conjugate() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d g_P = q_WP.conjugate() * Eigen::Vector3d::UnitZ();
+    return std::atan2(g_estimate_P.cross(g_P).norm(), g_estimate_P.dot(g_P));
+  };
+  const nav_msgs::Odometry fitted = PlatformOdometryOf(joints_P, subs, "iap");
+  // 5 cm at 0.72 m from the line through the other two joints: 0.067 rad (3.8 deg), measured
+  EXPECT_GT(tilt_error(fitted), 0.05);
+
+  const PlatformAttitude attitude{q_WP, w_P};
+  const nav_msgs::Odometry fused = PlatformOdometryOf(joints_P, subs, "iap", &attitude);
+  const Eigen::Quaterniond q_fused = bridge::FromMsg(fused.pose.pose.orientation);
+  const Eigen::Vector3d rpy_fused = sensors::RollPitchYaw_rad(q_fused);
+  const Eigen::Vector3d rpy_truth = sensors::RollPitchYaw_rad(q_WP);
+  EXPECT_NEAR(rpy_fused.x(), rpy_truth.x(), 1e-12);
+  EXPECT_NEAR(rpy_fused.y(), rpy_truth.y(), 1e-12);
+  EXPECT_NEAR(rpy_fused.z(), sensors::RollPitchYaw_rad(bridge::FromMsg(fitted.pose.pose.orientation)).z(),
+              1e-12);
+  EXPECT_LT(tilt_error(fused), 1e-12);
+  EXPECT_LT((bridge::FromMsg(fused.pose.pose.position) - (X_WP.translation() + drift_W_m / 3.0)).norm(),
+            1e-12);
+  EXPECT_LT((q_fused * bridge::FromMsg(fused.twist.twist.linear) - KnownMotion::Velocity(t)).norm(), 1e-12);
+  EXPECT_LT((bridge::FromMsg(fused.twist.twist.angular) - w_P).norm(), 1e-15);
 }
 
 // What a sub-aircraft shares is its body's pose and velocity; the IMU's state comes back out of it, lever arm

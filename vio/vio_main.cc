@@ -21,10 +21,12 @@
 // and its IMU arrive in the step they are drawn), and in virpo `after_previous: [the other instances]`: each
 // uses the others' odometry of the frames before its own, as `iapsim vio` does, so the run is deterministic.
 //
-// With `platform: true` (and no other params) it estimates the platform from every sub-aircraft's odometry
-// at each stamp (PlatformOdometryOf: the joints fitted rigidly) and publishes /<vehicle>/vio/odom (pose in
-// W, twist in P, the form the controller's odometry_topic reads), and from their propagated odometry
-// /<vehicle>/vio/imu_propagate; give it `after: [every instance]` and the instances' rate.
+// With `platform: true` it estimates the platform from every sub-aircraft's odometry at each stamp
+// (PlatformOdometryOf: the joints fitted rigidly) and publishes /<vehicle>/vio/odom (pose in W, twist in P,
+// the form the controller's odometry_topic reads), and from their propagated odometry
+// /<vehicle>/vio/imu_propagate; give it `after: [every instance]` and the instances' rate. Where the sensors
+// process carries a platform_imu, the platform's roll, pitch and rate are that IMU's attitude EKF's
+// (/<vehicle>/attitude) at each stamp, the yaw and the position the sub-aircraft's, as in `iapsim vio`.
 
 #include <iapsim_msgs/UwbRanges.h>
 #include <malloc.h>
@@ -32,12 +34,15 @@
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Imu.h>
 
+#include <algorithm>
 #include <cmath>
 #include <deque>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <optional>
+#include <stdexcept>
 
 #include "bridge/eigen_msgs.h"
 #include "bridge/process.h"
@@ -245,6 +250,15 @@ class PlatformNode : public bridge::Process {
     }
     frames_.topic = "/" + setup_.vehicle_name + "/vio/odom";
     propagated_.topic = "/" + setup_.vehicle_name + "/vio/imu_propagate";
+    // in lockstep, a step's attitude is read only once its sender acknowledged the step: another process's
+    // acknowledgement can arrive first, and the estimate would then depend on the timing
+    const std::vector<std::string>& after = context.self.after;
+    if (!setup_.platform_attitude_process.empty() && context.scenario.mode != bridge::ClockMode::kRealtime &&
+        std::find(after.begin(), after.end(), setup_.platform_attitude_process) == after.end()) {
+      throw bridge::ConfigError(context.scenario.file + ": processes." + context.self.name +
+                                ".after: must name '" + setup_.platform_attitude_process +
+                                "', whose platform_imu gives the platform's attitude at each step");
+    }
   }
 
   void Setup(bridge::Bus& bus) override {
@@ -253,17 +267,25 @@ class PlatformNode : public bridge::Process {
       Subscribe(bus, setup_.subs[i].odometry_topic, i, &frames_);
       Subscribe(bus, setup_.subs[i].propagated_odometry_topic, i, &propagated_);
     }
+    if (!setup_.platform_attitude_topic.empty()) {
+      bus.Subscribe<sensor_msgs::Imu>(
+          setup_.platform_attitude_topic, [this](const sensor_msgs::Imu& m, const bridge::MessageInfo&) {
+            attitudes_[bridge::ToNanoseconds(m.header.stamp)] = PlatformAttitudeOf(m);
+          });
+    }
   }
 
   void Step(const bridge::StepInfo& step) override {
     for (Stream* stream : {&frames_, &propagated_}) {
       while (!stream->odometry.empty() && stream->odometry.begin()->first <= step.stamp_ns) {
+        const int64_t t_ns = stream->odometry.begin()->first;
         std::vector<nav_msgs::Odometry> subs;
         for (const auto& odometry : stream->odometry.begin()->second) {
           if (odometry) subs.push_back(*odometry);
         }
         if (subs.size() == setup_.subs.size()) {
-          bus_->Publish(stream->topic, PlatformOdometryOf(setup_.joints_P, subs, setup_.vehicle_name));
+          bus_->Publish(stream->topic,
+                        PlatformOdometryOf(setup_.joints_P, subs, setup_.vehicle_name, AttitudeAt(t_ns)));
           ++stream->published;
         } else {
           ++stream->incomplete;  // a sub-aircraft had no estimate at this stamp
@@ -271,6 +293,13 @@ class PlatformNode : public bridge::Process {
         stream->odometry.erase(stream->odometry.begin());
       }
     }
+    // what the streams' next stamps can still need: the newest attitude at or before the oldest of them
+    int64_t oldest_ns = step.stamp_ns;
+    for (const Stream* stream : {&frames_, &propagated_}) {
+      if (!stream->odometry.empty()) oldest_ns = std::min(oldest_ns, stream->odometry.begin()->first);
+    }
+    auto keep = attitudes_.upper_bound(oldest_ns);
+    if (keep != attitudes_.begin()) attitudes_.erase(attitudes_.begin(), std::prev(keep));
   }
 
   void Finish(nlohmann::json* report) override {
@@ -278,6 +307,9 @@ class PlatformNode : public bridge::Process {
     (*report)["stamps_without_every_sub_aircraft"] = frames_.incomplete;
     (*report)["imu_propagate"] = {{"published", propagated_.published},
                                   {"stamps_without_every_sub_aircraft", propagated_.incomplete}};
+    (*report)["attitude_topic"] = setup_.platform_attitude_topic.empty()
+                                      ? nlohmann::json(nullptr)
+                                      : nlohmann::json(setup_.platform_attitude_topic);
   }
 
  private:
@@ -298,9 +330,20 @@ class PlatformNode : public bridge::Process {
         });
   }
 
+  const PlatformAttitude* AttitudeAt(int64_t t_ns) const {
+    if (setup_.platform_attitude_topic.empty()) return nullptr;
+    const PlatformAttitude* attitude = PlatformAttitudeAt(attitudes_, t_ns);
+    if (!attitude) {
+      throw std::runtime_error("no platform attitude on " + setup_.platform_attitude_topic +
+                               " at or before t = " + std::to_string(Seconds(t_ns)) + " s");
+    }
+    return attitude;
+  }
+
   RunSetup setup_;
   bridge::Bus* bus_ = nullptr;
   Stream frames_, propagated_;
+  PlatformAttitudes attitudes_;  // with setup_.platform_attitude_topic
 };
 
 }  // namespace

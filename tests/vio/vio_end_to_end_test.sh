@@ -123,7 +123,7 @@ for sub in sub1 sub2 sub3; do
   cmp -s <(grep -v '^#' "$work/bus_$sub.tum") <(grep -v '^#' "$work/simulated/iap_${sub}_estimate.tum") ||
     fail "$sub: the vio process published other estimates than iapsim vio computes from the bag"
 done
-# and the platform's instance, from the three, is the offline runner's centre
+# and the platform's instance, from the three and its own attitude estimate, is the offline runner's centre
 "$iapsim" export "$work/run/run.bag" --topic /iap/vio/odom --format tum -o "$work/bus_platform.tum" 2> /dev/null
 cmp -s <(grep -v '^#' "$work/bus_platform.tum") <(grep -v '^#' "$work/simulated/iap_platform_estimate.tum") ||
   fail "the platform's vio process published another centre than iapsim vio computes"
@@ -151,6 +151,7 @@ for name in ("vio_sub1", "vio_sub2", "vio_sub3"):
 platform = processes["vio_platform"]["process"]
 assert platform["published"] == 31 and platform["stamps_without_every_sub_aircraft"] == 0, platform
 assert platform["imu_propagate"] == {"published": 301, "stamps_without_every_sub_aircraft": 0}, platform
+assert platform["attitude_topic"] == "/iap/attitude", platform  # the platform's own IMU (platform_imu)
 PY
 # the propagated estimates: at every IMU sample, at a frame's stamp the frame's estimate itself, and the
 # platform's as close to the truth as the frames'
@@ -230,6 +231,9 @@ expect_exit 2 "no stereo camera on 'iap/sub9'" "$iapsim" vio "$work/run" --sub i
 expect_exit 2 "sub: 'sub9' has no stereo camera in this scenario" \
   "$bin/iapsim_vio" --scenario "$src/configs/scenarios/three_star_vio.yaml" --node vio_sub1 --check \
   --set processes.vio_sub1.params.sub=sub9
+expect_exit 2 "processes.vio_platform.after: must name 'sensors', whose platform_imu gives the platform's attitude" \
+  "$iapsim" run "$src/configs/scenarios/three_star_vio.yaml" --check --out "$work/bad_after" \
+  --set 'processes.vio_platform.after=[vio_sub1, vio_sub2, vio_sub3]'
 expect_exit 2 "evaluation.odometry[0].truth: is required" "$iapsim" run "$src/configs/scenarios/three_star_vio.yaml" \
   --check --out "$work/bad_odometry" --set 'evaluation.odometry=[{estimate: /iap/sub1/vio/odom}]'
 expect_exit 2 "evaluation.odometry[0].estimate: expected a topic name starting with /" \
