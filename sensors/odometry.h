@@ -31,6 +31,10 @@ struct OdometryNoise {
 struct OdometryConfig {
   OdometryNoise noise;
   double rate_hz = 200.0;  ///< for the caller's schedule (the seed's positioning rate)
+  /// The sensors process replaces the model's roll, pitch and rate with the platform's own IMU and attitude
+  /// EKF (its platform_imu), as an IAP computer fusing its odometry with its IMU would report them; the
+  /// position, velocity and yaw (with its drift) stay the model's.
+  bool attitude_from_platform_imu = false;
 };
 
 /// A body's pose in W and its twist in its own frame B (nav_msgs/Odometry's convention).

@@ -162,6 +162,12 @@ OdometryConfig ReadOdometry(YamlMap& map) {
   map.OptionalInRange("position_drift_m_per_sqrt_s", &n.position_drift_m_per_sqrt_s, 0.0, 10.0);
   OptionalDegrees(map, "yaw_drift_deg_per_sqrt_s", &n.yaw_drift_rad_per_sqrt_s, 30.0);
   map.OptionalInRange("rate_hz", &odometry.rate_hz, 1e-3, kMaxRate_hz);
+  std::string attitude_source = "model";
+  map.Optional("attitude_source", &attitude_source);
+  if (attitude_source != "model" && attitude_source != "platform_imu") {
+    map.Fail("attitude_source", "expected model or platform_imu, got '" + attitude_source + "'");
+  }
+  odometry.attitude_from_platform_imu = attitude_source == "platform_imu";
   map.Finish();
   return odometry;
 }
@@ -192,6 +198,9 @@ SensorsConfig ReadSensorsConfig(YamlMap& params) {
   if (params.Has("odometry")) {
     YamlMap odometry = params.Map("odometry");
     config.odometry = ReadOdometry(odometry);
+    if (config.odometry->attitude_from_platform_imu && !params.Has("platform_imu")) {
+      odometry.Fail("attitude_source", "platform_imu needs a platform_imu section");
+    }
   }
   if (params.Has("platform_imu")) {
     YamlMap platform = params.Map("platform_imu");

@@ -169,6 +169,16 @@ platform_imu: {gyroscope_noise_density: 0.004, mounting: {rpy_deg: [0, 0, 90]}})
             1e-12);
   EXPECT_EQ(platform.acceleration_correlation_s, 2.0);
   EXPECT_TRUE(platform.velocity_aided);
+  EXPECT_FALSE(config.odometry.has_value());
+  EXPECT_TRUE(Read("platform_imu: {}\nodometry: {attitude_source: platform_imu}")
+                  .odometry->attitude_from_platform_imu);
+  EXPECT_FALSE(Read("odometry: {attitude_source: model}").odometry->attitude_from_platform_imu);
+  EXPECT_NE(ErrorOf("odometry: {attitude_source: platform_imu}")
+                .find("odometry.attitude_source: platform_imu needs a platform_imu section"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf("odometry: {attitude_source: ekf}")
+                .find("odometry.attitude_source: expected model or platform_imu"),
+            std::string::npos);
   EXPECT_NE(ErrorOf("imu: {rate_hz: 400}\nplatform_imu: {rate_hz: 200}")
                 .find("platform_imu.rate_hz: must be the imu section's"),
             std::string::npos);

@@ -13,7 +13,8 @@
 //               /<vehicle>/<sub>/uwb             iapsim_msgs/UwbRanges (received ranges only)
 //               /<vehicle>/imu, /<vehicle>/attitude   the same for the platform (with `platform_imu`)
 //               /<vehicle>/wrench/filtered       geometry_msgs/WrenchStamped (in P, about its origin)
-//               /<vehicle>/odometry              nav_msgs/Odometry (pose in W, twist in P; with `odometry`)
+//               /<vehicle>/odometry              nav_msgs/Odometry (pose in W, twist in P; with `odometry`; its
+//                                                tilt and rate the platform EKF's with attitude_source: platform_imu)
 //
 // Each sensor runs at its own rate_hz, which must divide the process's rate_hz; the process's rate is the
 // step of the wrench filter.
@@ -64,6 +65,7 @@ struct InertialSensors {
   std::optional<VelocitySensor> velocity;
   AttitudeErrorStatistics attitude_errors;
   uint64_t imu_samples = 0;
+  Eigen::Vector3d rate_B_radps = Eigen::Vector3d::Zero();  // the last sample's, bias-corrected, in B
 };
 
 struct SubAircraftSensors {
@@ -237,8 +239,8 @@ class SensorsNode : public bridge::Process {
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) attitude.orientation_covariance[3 * r + c] = attitude_covariance(r, c);
     }
-    attitude.angular_velocity =
-        bridge::ToVector3Msg(sub.q_BI * sample.w_I_radps - sub.estimator.gyroscope_bias_B_radps());
+    sub.rate_B_radps = sub.q_BI * sample.w_I_radps - sub.estimator.gyroscope_bias_B_radps();
+    attitude.angular_velocity = bridge::ToVector3Msg(sub.rate_B_radps);
     bus_->Publish(sub.topic_prefix + "/attitude", attitude);
   }
 
@@ -288,8 +290,14 @@ class SensorsNode : public bridge::Process {
     truth.q_WB = bridge::FromMsg(platform.pose_W.orientation).normalized();
     truth.v_WB_B_mps = bridge::FromMsg(platform.twist_B.linear);
     truth.w_WB_B_radps = bridge::FromMsg(platform.twist_B.angular);
-    const OdometryState estimate =
-        odometry_->Sample(truth, static_cast<double>(odometry_every_) * process_step_s_);
+    OdometryState estimate = odometry_->Sample(truth, static_cast<double>(odometry_every_) * process_step_s_);
+    const bool platform_attitude = odometry_->config().attitude_from_platform_imu;
+    if (platform_attitude) {
+      const Eigen::Vector3d tilt_rpy_rad = RollPitchYaw_rad(platform_->estimator.q_WB());
+      estimate.q_WB =
+          FromRollPitchYaw(tilt_rpy_rad.x(), tilt_rpy_rad.y(), RollPitchYaw_rad(estimate.q_WB).z());
+      estimate.w_WB_B_radps = platform_->rate_B_radps;
+    }
     ++odometry_samples_;
     odometry_position_sum_of_squares_m2_ += (estimate.p_WB_m - truth.p_WB_m).cwiseAbs2();
     odometry_attitude_errors_.Add(estimate.q_WB, truth.q_WB);
@@ -311,11 +319,17 @@ class SensorsNode : public bridge::Process {
     const double attitude_variance = noise.attitude_sigma_rad * noise.attitude_sigma_rad;
     const double yaw_variance =
         attitude_variance + noise.yaw_drift_rad_per_sqrt_s * noise.yaw_drift_rad_per_sqrt_s * t_s;
-    const double rate_variance = noise.angular_rate_noise_density * noise.angular_rate_noise_density /
-                                 (static_cast<double>(odometry_every_) * process_step_s_);
+    double rate_variance = noise.angular_rate_noise_density * noise.angular_rate_noise_density /
+                           (static_cast<double>(odometry_every_) * process_step_s_);
+    Eigen::Vector2d tilt_variance(attitude_variance, attitude_variance);
+    if (platform_attitude) {  // the EKF's own, and the platform gyroscope's white noise over its sample
+      tilt_variance = platform_->estimator.covariance().diagonal().head<2>();
+      const double density = config_.platform_imu->noise.gyroscope_noise_density;
+      rate_variance = density * density / (static_cast<double>(imu_every_) * process_step_s_);
+    }
     for (int i = 0; i < 3; ++i) {
       odometry.pose.covariance[7 * i] = position_variance;
-      odometry.pose.covariance[7 * (i + 3)] = i == 2 ? yaw_variance : attitude_variance;
+      odometry.pose.covariance[7 * (i + 3)] = i == 2 ? yaw_variance : tilt_variance[i];
       odometry.twist.covariance[7 * i] = noise.velocity_sigma_mps * noise.velocity_sigma_mps;
       odometry.twist.covariance[7 * (i + 3)] = rate_variance;
     }

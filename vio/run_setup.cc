@@ -167,7 +167,7 @@ nav_msgs::Odometry PlatformOdometryOf(const std::vector<Eigen::Vector3d>& joints
   if (attitude) {
     const Eigen::Vector3d tilt_rpy_rad = sensors::RollPitchYaw_rad(attitude->q_WP);
     const double yaw_rad = sensors::RollPitchYaw_rad(Eigen::Quaterniond(X_WP.linear())).z();
-    X_WP.linear() = model::RotationFromRpy(Eigen::Vector3d(tilt_rpy_rad.x(), tilt_rpy_rad.y(), yaw_rad));
+    X_WP.linear() = sensors::FromRollPitchYaw(tilt_rpy_rad.x(), tilt_rpy_rad.y(), yaw_rad).toRotationMatrix();
     w_W = X_WP.linear() * attitude->w_P_radps;
     X_WP.translation().setZero();
     v_W.setZero();

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <iapsim_msgs/IapState.h>
 #include <iapsim_msgs/UwbRanges.h>
+#include <nav_msgs/Odometry.h>
 #include <sensor_msgs/Imu.h>
 #include <unistd.h>
 
@@ -16,6 +17,7 @@
 #include "bridge/eigen_msgs.h"
 #include "bridge/launcher.h"
 #include "bridge/message.h"
+#include "sensors/attitude_estimator.h"
 
 namespace iapsim::bridge {
 namespace {
@@ -109,6 +111,8 @@ TEST(SensorFlight, EverySubAircraftRecordsItsSensorsOnThePhysicsClock) {
   // an IMU and an attitude EKF added on the platform (the IAP computer's): its streams are seeded apart
   options.out_dir = (out / "again").string();
   options.overrides.push_back("processes.sensors.params.platform_imu={}");
+  // and a noise-free odometry that reports the platform's tilt and rate from that IMU and its EKF
+  options.overrides.push_back("processes.sensors.params.odometry={attitude_source: platform_imu}");
   const LaunchResult again = Launch(options);
   ASSERT_EQ(again.exit_code, 0) << again.message;
   BagReader again_bag(again.run_dir + "/run.bag");
@@ -120,6 +124,7 @@ TEST(SensorFlight, EverySubAircraftRecordsItsSensorsOnThePhysicsClock) {
     return true;
   });
   uint64_t platform_imu = 0, platform_attitude = 0;
+  std::map<int64_t, sensor_msgs::Imu> platform_attitude_by_stamp;
   double max_platform_tilt_error_deg = 0.0, max_start_tilt_error_deg = 0.0;  // after the first second, in it
   again_bag.ForEach({"/iap/imu", "/iap/attitude"}, [&](const BagMessage& m) {
     sensor_msgs::Imu imu;
@@ -131,6 +136,7 @@ TEST(SensorFlight, EverySubAircraftRecordsItsSensorsOnThePhysicsClock) {
     }
     EXPECT_EQ(imu.header.frame_id, "iap/P");
     ++platform_attitude;
+    platform_attitude_by_stamp[ToNanoseconds(imu.header.stamp)] = imu;
     // the angle between the estimated and the true down axis of P
     const Eigen::Quaterniond q_estimate = FromMsg(imu.orientation).normalized();
     const Eigen::Quaterniond& q_truth = q_WP.at(ToNanoseconds(imu.header.stamp));
@@ -147,6 +153,23 @@ TEST(SensorFlight, EverySubAircraftRecordsItsSensorsOnThePhysicsClock) {
   // then holds the tilt of the gently cruising platform as it does a sub-aircraft's (measured 1.35 deg)
   EXPECT_LT(max_start_tilt_error_deg, 5.0);
   EXPECT_LT(max_platform_tilt_error_deg, 2.7);
+  uint64_t odometry_samples = 0;
+  again_bag.ForEach({"/iap/odometry"}, [&](const BagMessage& m) {
+    nav_msgs::Odometry odometry;
+    EXPECT_TRUE(Decode(m.bytes, &odometry, &error)) << error;
+    const int64_t t_ns = ToNanoseconds(odometry.header.stamp);
+    const sensor_msgs::Imu& attitude = platform_attitude_by_stamp.at(t_ns);
+    // roll and pitch are the EKF's, the yaw the (noise-free) odometry's: the truth's
+    const Eigen::Vector3d rpy = sensors::RollPitchYaw_rad(FromMsg(odometry.pose.pose.orientation));
+    const Eigen::Vector3d ekf_rpy = sensors::RollPitchYaw_rad(FromMsg(attitude.orientation));
+    EXPECT_NEAR(rpy.x(), ekf_rpy.x(), 1e-12);
+    EXPECT_NEAR(rpy.y(), ekf_rpy.y(), 1e-12);
+    EXPECT_NEAR(rpy.z(), sensors::RollPitchYaw_rad(q_WP.at(t_ns)).z(), 1e-12);
+    EXPECT_EQ(FromMsg(odometry.twist.twist.angular), FromMsg(attitude.angular_velocity));
+    ++odometry_samples;
+    return true;
+  });
+  EXPECT_EQ(odometry_samples, 1001u);
   EXPECT_GT(max_platform_tilt_error_deg, 0.01);
   const auto samples = [](const std::string& bag_path) {
     std::vector<std::vector<uint8_t>> bytes;
