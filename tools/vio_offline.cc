@@ -177,40 +177,35 @@ bridge::StampedPose Stamped(int64_t t_ns, const geometry_msgs::Pose& pose) {
 // platform's.
 using Truth = std::map<std::string, std::map<int64_t, TruthSample>>;
 
-Truth ReadTruth(const bridge::BagReader& bag, const DatasetInput& in) {
+// The ground truth and, where the run's sensors carried a platform_imu, the platform's own attitude estimate
+// by stamp (the centre takes its tilt and rate, as the vio process's platform instance does), in one pass.
+Truth ReadTruth(const bridge::BagReader& bag, const DatasetInput& in, vio::PlatformAttitudes* attitudes) {
+  const std::string& attitude_topic = in.setup.platform_attitude_topic;
   std::vector<std::string> topics;
   for (const vio::SubAircraftSetup& sub : in.setup.subs) topics.push_back(sub.truth_topic);
   if (!in.setup.platform_truth_topic.empty()) topics.push_back(in.setup.platform_truth_topic);
+  if (!attitude_topic.empty()) topics.push_back(attitude_topic);
   Truth truth;
   nav_msgs::Odometry odometry;
+  sensor_msgs::Imu attitude;
   std::string error;
   bag.ForEach(topics, [&](const bridge::BagMessage& m) {
+    if (m.topic == attitude_topic) {
+      if (!bridge::Decode(m.bytes, &attitude, &error))
+        throw DatasetError(bag.path() + ": " + m.topic + ": " + error);
+      (*attitudes)[bridge::ToNanoseconds(attitude.header.stamp)] = vio::PlatformAttitudeOf(attitude);
+      return true;
+    }
     if (!bridge::Decode(m.bytes, &odometry, &error))
       throw DatasetError(bag.path() + ": " + m.topic + ": " + error);
     truth[m.topic][bridge::ToNanoseconds(odometry.header.stamp)] = {odometry.pose.pose, odometry.twist.twist};
     return true;
   });
-  return truth;
-}
-
-// The platform's own attitude estimate by stamp, where the run's sensors carried a platform_imu (the centre
-// takes its tilt and rate, as the vio process's platform instance does).
-vio::PlatformAttitudes ReadPlatformAttitudes(const bridge::BagReader& bag, const DatasetInput& in) {
-  vio::PlatformAttitudes attitudes;
-  if (in.setup.platform_attitude_topic.empty()) return attitudes;
-  sensor_msgs::Imu attitude;
-  std::string error;
-  bag.ForEach({in.setup.platform_attitude_topic}, [&](const bridge::BagMessage& m) {
-    if (!bridge::Decode(m.bytes, &attitude, &error))
-      throw DatasetError(bag.path() + ": " + m.topic + ": " + error);
-    attitudes[bridge::ToNanoseconds(attitude.header.stamp)] = vio::PlatformAttitudeOf(attitude);
-    return true;
-  });
-  if (attitudes.empty()) {
-    throw DatasetError(bag.path() + ": no messages on " + in.setup.platform_attitude_topic +
+  if (!attitude_topic.empty() && attitudes->empty()) {
+    throw DatasetError(bag.path() + ": no messages on " + attitude_topic +
                        " (the run's sensors process has a platform_imu, whose attitude the centre takes)");
   }
-  return attitudes;
+  return truth;
 }
 
 using Inputs = std::vector<std::function<void(vio::Estimator&)>>;
@@ -850,8 +845,8 @@ std::vector<nlohmann::json> RunPass(const std::vector<Variant>& variants) {
   for (const Variant& variant : variants) {
     for (const vio::SubAircraftSetup& sub : variant.in.setup.subs) CheckBag(bag, sub);
   }
-  const Truth truth = ReadTruth(bag, in);
-  const vio::PlatformAttitudes attitudes = ReadPlatformAttitudes(bag, in);
+  vio::PlatformAttitudes attitudes;
+  const Truth truth = ReadTruth(bag, in, &attitudes);
   const std::vector<std::vector<SubAircraftResult>> results = EstimateAll(bag, variants, truth);
   const double wall_s = Milliseconds(start) * 1e-3;
 

@@ -1,5 +1,6 @@
 // Issue 5's end-to-end check: a three-star flight records IMU, attitude estimate, UWB and the filtered wrench
-// for every sub-aircraft, each sample stamped with the physics time of the state it derives from.
+// for every sub-aircraft, each sample stamped with the physics time of the state it derives from; with
+// platform_imu, the platform's IMU and attitude estimate too, and an odometry that takes its tilt from them.
 #include <geometry_msgs/WrenchStamped.h>
 #include <gtest/gtest.h>
 #include <iapsim_msgs/IapState.h>
@@ -137,11 +138,14 @@ TEST(SensorFlight, EverySubAircraftRecordsItsSensorsOnThePhysicsClock) {
     EXPECT_EQ(imu.header.frame_id, "iap/P");
     ++platform_attitude;
     platform_attitude_by_stamp[ToNanoseconds(imu.header.stamp)] = imu;
-    // the angle between the estimated and the true down axis of P
-    const Eigen::Quaterniond q_estimate = FromMsg(imu.orientation).normalized();
-    const Eigen::Quaterniond& q_truth = q_WP.at(ToNanoseconds(imu.header.stamp));
-    const double cos_tilt = (q_estimate * Eigen::Vector3d::UnitZ()).dot(q_truth * Eigen::Vector3d::UnitZ());
-    const double tilt_error_deg = std::acos(std::min(1.0, cos_tilt)) * 180.0 / M_PI;
+    // the tilt error: the angle between the estimated and the true direction of gravity in P (what the
+    // accelerometer observes; a yaw error does not enter it)
+    const Eigen::Vector3d g_estimate_P =
+        FromMsg(imu.orientation).normalized().conjugate() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d g_P =
+        q_WP.at(ToNanoseconds(imu.header.stamp)).conjugate() * Eigen::Vector3d::UnitZ();
+    const double tilt_error_deg =
+        std::atan2(g_estimate_P.cross(g_P).norm(), g_estimate_P.dot(g_P)) * 180.0 / M_PI;
     double& max_deg = ToNanoseconds(imu.header.stamp) >= 1'000'000'000 ? max_platform_tilt_error_deg
                                                                        : max_start_tilt_error_deg;
     max_deg = std::max(max_deg, tilt_error_deg);
@@ -153,6 +157,7 @@ TEST(SensorFlight, EverySubAircraftRecordsItsSensorsOnThePhysicsClock) {
   // then holds the tilt of the gently cruising platform as it does a sub-aircraft's (measured 1.35 deg)
   EXPECT_LT(max_start_tilt_error_deg, 5.0);
   EXPECT_LT(max_platform_tilt_error_deg, 2.7);
+  EXPECT_GT(max_platform_tilt_error_deg, 0.01);  // an estimate, not the truth
   uint64_t odometry_samples = 0;
   again_bag.ForEach({"/iap/odometry"}, [&](const BagMessage& m) {
     nav_msgs::Odometry odometry;
@@ -170,7 +175,6 @@ TEST(SensorFlight, EverySubAircraftRecordsItsSensorsOnThePhysicsClock) {
     return true;
   });
   EXPECT_EQ(odometry_samples, 1001u);
-  EXPECT_GT(max_platform_tilt_error_deg, 0.01);
   const auto samples = [](const std::string& bag_path) {
     std::vector<std::vector<uint8_t>> bytes;
     BagReader(bag_path).ForEach({"/iap/sub2/imu", "/iap/sub3/uwb"}, [&](const BagMessage& m) {
