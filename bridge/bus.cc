@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstring>
 #include <optional>
+#include <string_view>
 #include <thread>
 #include <unordered_map>
 #include <zmq.hpp>
@@ -29,6 +30,9 @@ constexpr size_t kMaxSubscriptionBytes = 64 << 10;
 // ZAP domains of a ZeroMQ node's two publisher sockets
 constexpr char kMemberDomain[] = "iapsim";
 constexpr char kObserverDomain[] = "iapsim-observers";
+
+// the meta frame's part that changes from message to message: version, flags, sequence, send time
+constexpr size_t kMetaFixedBytes = 18;
 
 // meta frame: u8 version | u64 sequence | i64 sent_unix_ns | u16 n + datatype | 32 md5 chars | u16 n +
 // publisher
@@ -60,11 +64,11 @@ struct Meta {
 
 bool ParseMeta(const uint8_t* p, size_t size, Meta* meta) {
   const uint8_t* end = p + size;
-  if (end - p < 18 || p[0] != kWireVersion) return false;
+  if (end - p < static_cast<std::ptrdiff_t>(kMetaFixedBytes) || p[0] != kWireVersion) return false;
   meta->flags = p[1];
   std::memcpy(&meta->sequence, p + 2, 8);
   std::memcpy(&meta->sent_unix_ns, p + 10, 8);
-  p += 18;
+  p += kMetaFixedBytes;
   if (!ReadU16String(p, end, &meta->datatype)) return false;
   if (end - p < 32) return false;
   meta->md5.assign(reinterpret_cast<const char*>(p), 32);
@@ -116,15 +120,28 @@ struct Bus::Impl {
   };
   std::unordered_map<std::string, Sequence> published;
   std::unordered_map<std::string, Sequence> received;
-  std::string received_key;  // its storage reused from message to message
+  // A received stream as its frames name it: the topic frame and the meta frame after its per-message part
+  // (datatype, md5, publisher), parsed once. A message whose bytes match a known key costs one hash of
+  // them: no parsing, no copies of its names, and the subscriptions it goes to found before.
+  struct Stream {
+    std::string topic, datatype, md5, publisher;  // what MessageInfo refers to
+    Sequence* sequence = nullptr;                 // of (publisher, topic): a type change keeps counting it
+    struct Match {
+      size_t subscription;  // in subscriptions, which only grow
+      bool wrong_type;
+    };
+    std::vector<Match> matches;
+    size_t subscriptions_matched = 0;  // subscriptions.size() when `matches` was made
+  };
+  std::unordered_map<std::string, Stream> streams;
+  std::string stream_key;  // its storage reused from message to message
   std::set<std::string> hello_from, confirm_from;
   bool confirm_subscribed = false;
   int spins_since_drain = 0;
   // contention-aware spinning (see Spin): waits left to sleep through without spinning, and how many the
   // next contended spin buys
   int spinless_waits_left = 0, spin_backoff = 0;
-  std::string topic;  // of the message being dispatched
-  Meta meta;
+  Meta meta;  // of a message on a stream not seen before
 
   void Subscribe(const std::string& prefix_bytes) {
     subscriber.set(zmq::sockopt::subscribe, prefix_bytes);
@@ -202,38 +219,33 @@ struct Bus::Impl {
   // One message to the subscriptions it matches; false for handshake traffic and malformed messages.
   bool Dispatch(BusStats& stats, const char* topic_bytes, size_t topic_size, const uint8_t* meta_bytes,
                 size_t meta_size, const uint8_t* payload, size_t payload_size) {
-    if (topic_size == 0 || topic_bytes[topic_size - 1] != '\0' || !ParseMeta(meta_bytes, meta_size, &meta)) {
+    if (topic_size == 0 || topic_bytes[topic_size - 1] != '\0' || meta_size < kMetaFixedBytes ||
+        meta_bytes[0] != kWireVersion) {
       return Malformed(stats);
     }
-    topic.assign(topic_bytes, topic_size - 1);
-
-    // handshake traffic is handled here and never reaches subscribers
-    if (topic == kHelloTopic) {
-      hello_from.insert(meta.publisher);
-      return false;
+    stream_key.assign(topic_bytes, topic_size)
+        .append(reinterpret_cast<const char*>(meta_bytes) + kMetaFixedBytes, meta_size - kMetaFixedBytes);
+    auto found = streams.find(stream_key);
+    if (found == streams.end()) {
+      if (!ParseMeta(meta_bytes, meta_size, &meta)) return Malformed(stats);
+      const std::string_view topic(topic_bytes, topic_size - 1);
+      // handshake traffic is handled here and never reaches subscribers
+      if (topic == kHelloTopic || topic == kConfirmTopic) {
+        (topic == kHelloTopic ? hello_from : confirm_from).insert(meta.publisher);
+        return false;
+      }
+      found = streams.emplace(stream_key, NewStream(stats, std::string(topic))).first;
     }
-    if (topic == kConfirmTopic) {
-      confirm_from.insert(meta.publisher);
-      return false;
-    }
-
-    received_key.assign(meta.publisher).append(1, '\0').append(topic);
-    auto found = received.find(received_key);
-    if (found == received.end()) {
-      const auto stream = static_cast<uint32_t>(received.size());
-      Sequence sequence;
-      sequence.next = meta.sequence;
-      sequence.counters = &stats.topics[topic];
-      sequence.counters->subscribed = true;
-      sequence.stream = stream;
-      sequence.max_bytes = options.message_limits.For(topic);
-      found = received.emplace(received_key, std::move(sequence)).first;
-    }
-    Sequence& expected = found->second;
-    if (meta.sequence > expected.next && !(meta.flags & kResyncFlag)) {
-      expected.counters->lost += meta.sequence - expected.next;
-    }
-    expected.next = meta.sequence + 1;
+    Stream& stream = found->second;
+    Sequence& expected = *stream.sequence;
+    const uint8_t flags = meta_bytes[1];
+    uint64_t sequence;
+    int64_t sent_unix_ns;
+    std::memcpy(&sequence, meta_bytes + 2, 8);
+    std::memcpy(&sent_unix_ns, meta_bytes + 10, 8);
+    if (sequence > expected.next && !(flags & kResyncFlag))
+      expected.counters->lost += sequence - expected.next;
+    expected.next = sequence + 1;
     // a peer with other limits (or none): never decoded, so it cannot make this process allocate for it
     if (payload_size > expected.max_bytes) {
       ++expected.counters->oversized;
@@ -242,25 +254,62 @@ struct Bus::Impl {
         spdlog::warn(
             "node '{}': discarded a message of {} bytes on '{}' from '{}': over the topic's limit of {} "
             "bytes",
-            options.node_name, payload_size, topic, meta.publisher, expected.max_bytes);
+            options.node_name, payload_size, stream.topic, stream.publisher, expected.max_bytes);
       }
       return false;
     }
     ++expected.counters->received;
 
-    const MessageInfo info{topic,         meta.datatype,     meta.md5,       meta.publisher,
-                           meta.sequence, meta.sent_unix_ns, expected.stream};
-    for (const auto& sub : subscriptions) {
-      const bool match = sub.exact ? sub.topic == topic : topic.compare(0, sub.topic.size(), sub.topic) == 0;
-      if (!match) continue;
-      if (sub.type && (sub.type->datatype != meta.datatype || sub.type->md5 != meta.md5)) {
-        throw BusError("topic '" + topic + "': node '" + options.node_name + "' expects " +
-                       sub.type->datatype + " (md5 " + sub.type->md5 + ") but '" + meta.publisher +
-                       "' sends " + meta.datatype + " (md5 " + meta.md5 + ")");
+    if (stream.subscriptions_matched != subscriptions.size()) Match(stream);
+    const MessageInfo info{stream.topic, stream.datatype, stream.md5,     stream.publisher,
+                           sequence,     sent_unix_ns,    expected.stream};
+    for (const Stream::Match& match : stream.matches) {
+      const Subscription& sub = subscriptions[match.subscription];
+      if (match.wrong_type) {
+        throw BusError("topic '" + stream.topic + "': node '" + options.node_name + "' expects " +
+                       sub.type->datatype + " (md5 " + sub.type->md5 + ") but '" + stream.publisher +
+                       "' sends " + stream.datatype + " (md5 " + stream.md5 + ")");
       }
       sub.callback(payload, payload_size, info);
     }
     return true;
+  }
+
+  // The stream of `meta` on `topic`, counted with its (publisher, topic)'s sequence.
+  Stream NewStream(BusStats& stats, std::string topic) {
+    Stream stream;
+    std::string key = meta.publisher + '\0' + topic;
+    auto found = received.find(key);
+    if (found == received.end()) {
+      Sequence sequence;
+      sequence.next = meta.sequence;
+      sequence.counters = &stats.topics[topic];
+      sequence.counters->subscribed = true;
+      sequence.stream = static_cast<uint32_t>(received.size());
+      sequence.max_bytes = options.message_limits.For(topic);
+      found = received.emplace(std::move(key), std::move(sequence)).first;
+    }
+    stream.sequence = &found->second;
+    stream.topic = std::move(topic);
+    stream.datatype = meta.datatype;
+    stream.md5 = meta.md5;
+    stream.publisher = meta.publisher;
+    return stream;
+  }
+
+  // The subscriptions a stream goes to, in the order they were made.
+  void Match(Stream& stream) const {
+    stream.matches.clear();
+    for (size_t i = 0; i < subscriptions.size(); ++i) {
+      const Subscription& sub = subscriptions[i];
+      const std::string& topic = stream.topic;
+      const bool match = sub.exact ? sub.topic == topic : topic.compare(0, sub.topic.size(), sub.topic) == 0;
+      if (!match) continue;
+      const bool wrong_type =
+          sub.type && (sub.type->datatype != stream.datatype || sub.type->md5 != stream.md5);
+      stream.matches.push_back({i, wrong_type});
+    }
+    stream.subscriptions_matched = subscriptions.size();
   }
 
   // shared memory: takes new subscribers and (re)connects to publishers, a few system calls each, so at
