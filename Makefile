@@ -3,6 +3,9 @@ BUILD_DIR ?= build
 # the default scenario: the three-star spiral of the seed §VI-A (tracked, evaluated, plotted)
 SCENARIO ?= configs/regression/three_star_spiral.yaml
 CMAKE_FLAGS ?=
+# tests run side by side, one per core: none asserts a wall-clock duration, and each run has its own ports,
+# shared memory and run folder (README: Tests)
+TEST_JOBS ?= $(shell nproc)
 
 .PHONY: deps configure build run test nightly bench clean
 
@@ -19,7 +22,7 @@ run: build
 	@$(BUILD_DIR)/bin/iapsim run $(SCENARIO)
 
 test: build
-	@cd $(BUILD_DIR) && ctest --output-on-failure --timeout 600
+	@cd $(BUILD_DIR) && ctest --output-on-failure --timeout 600 --parallel $(TEST_JOBS)
 
 # flights too slow for `make test` (they render): configs/regression/slow, both profiles
 nightly: build
