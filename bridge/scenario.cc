@@ -137,7 +137,7 @@ void Overlay(YAML::Node into, const YAML::Node& over, const std::string& path, c
     YAML::Node mine = into[key];
     if (entry.second.IsNull()) {
       if (!mine.IsDefined() || !into.remove(key)) {
-        YamlMap(over, path, key_path).Fail(key, "~ removes a key of the base scenario, which has none here");
+        YamlMap(over, path, key_path).Fail(key, "~ removes a key of the base, which has none here");
       }
     } else if (mine.IsDefined() && mine.IsMap() && entry.second.IsMap()) {
       Overlay(mine, entry.second, path, key_path.empty() ? key : key_path + "." + key);
@@ -173,15 +173,47 @@ YAML::Node WithBase(YAML::Node root, const std::string& path, std::set<std::stri
   return merged;
 }
 
+bool IsYamlFile(const std::string& name) {
+  return name.size() > 5 && name.substr(name.size() - 5) == ".yaml";
+}
+
+// A profile named NAME is IAPSIM_PROFILE_DIR/NAME.yaml.
+std::string ProfilePath(const std::string& name) {
+  return std::string(IAPSIM_PROFILE_DIR) + "/" + name + ".yaml";
+}
+
+// A profile file with its `base: NAME` (a profile of IAPSIM_PROFILE_DIR) or `base: FILE.yaml` (relative to
+// it) laid under it, as a scenario's base is (Overlay: `~` removes one of the base's keys): an arena's
+// profile is the outdoor one with other air and another odometry, not a copy of it.
+YAML::Node LoadProfile(const std::string& path, std::set<std::string> chain) {
+  YAML::Node root = LoadYamlFile(path);
+  if (!root.IsMap() || !root["base"]) return root;
+  YamlMap top(root, path);
+  std::string base;
+  top.Required("base", &base);
+  const std::string base_path = IsYamlFile(base) ? ReadFilePath(top, "base", path) : ProfilePath(base);
+  if (!std::filesystem::exists(base_path)) {
+    top.Fail("base", "expected a profile of " + std::string(IAPSIM_PROFILE_DIR) +
+                         " (without .yaml) or a profile file ending in .yaml; '" + base + "' is neither");
+  }
+  chain.insert(std::filesystem::weakly_canonical(path).string());
+  if (chain.count(std::filesystem::weakly_canonical(base_path).string()) != 0) {
+    top.Fail("base", "'" + base + "' is this profile or one it is based on (a cycle)");
+  }
+  YAML::Node merged = LoadProfile(base_path, chain);
+  root.remove("base");
+  Overlay(merged, root, path, "");
+  return merged;
+}
+
 // `fidelity: NAME` (IAPSIM_PROFILE_DIR/NAME.yaml) or `fidelity: FILE.yaml` (relative to the scenario): each
 // process whose exec the profile lists gets the profile's keys for that exec where it does not set them.
 void ApplyFidelityProfile(YAML::Node root, const std::string& scenario_path, std::string* fidelity) {
   YamlMap top(root, scenario_path);
   top.Optional("fidelity", fidelity);
   if (*fidelity == "ideal") return;
-  const bool is_file = fidelity->size() > 5 && fidelity->substr(fidelity->size() - 5) == ".yaml";
-  std::string path = std::string(IAPSIM_PROFILE_DIR) + "/" + *fidelity + ".yaml";
-  if (is_file) {  // made absolute, so that the run's scenario.resolved.yaml finds it too
+  std::string path = ProfilePath(*fidelity);
+  if (IsYamlFile(*fidelity)) {  // made absolute, so that the run's scenario.resolved.yaml finds it too
     path = ReadFilePath(top, "fidelity", scenario_path);
     *fidelity = path;
     root["fidelity"] = path;
@@ -190,7 +222,7 @@ void ApplyFidelityProfile(YAML::Node root, const std::string& scenario_path, std
                              " (without .yaml) or a profile file ending in .yaml; '" + *fidelity +
                              "' is neither");
   }
-  YamlMap profile(LoadYamlFile(path), path);
+  YamlMap profile(LoadProfile(path, {}), path);
   std::string description;
   profile.Optional("description", &description);
   // a profile's flights may start from a hover settled in its conditions (the scenario's own key wins)

@@ -58,6 +58,9 @@ struct Flight {
   // flight names a draw that does its task, so that a change which breaks the task in the realistic
   // profile is caught; the Monte Carlo success rate says how many draws do
   uint64_t realistic_seed = 0;
+  // the profile the flight flies where the suite flies `realistic`: a task flown in a laboratory names the
+  // arena's (realistic_indoor)
+  std::string realistic_profile = "realistic";
   // --monte-carlo: bounds on the draws' 95th (max) and 5th (min) percentiles, and the least fraction of
   // draws that meet the flight's own contact bounds (that did the task)
   std::vector<Bound> monte_carlo_bounds;
@@ -150,6 +153,9 @@ Suite ReadSuite(const std::string& suite_dir) {
     bridge::YamlMap realistic = map.Map("realistic");
     flight.realistic_bounds = ReadBounds(realistic);
     realistic.Optional("seed", &flight.realistic_seed);
+    realistic.Optional("fidelity", &flight.realistic_profile);
+    if (flight.realistic_profile == "ideal")
+      realistic.Fail("fidelity", "expected a realistic profile, not ideal");
     realistic.Finish();
     bridge::YamlMap monte_carlo = map.Map("monte_carlo");
     flight.monte_carlo_bounds = ReadBounds(monte_carlo);
@@ -243,7 +249,7 @@ std::vector<Flight> Selected(const std::vector<Flight>& flights, const std::vect
 int Report(const FlightRun& run, nlohmann::json* report) {
   nlohmann::json& entry = (*report)[run.name];
   if (!run.run_dir.empty()) entry["run_dir"] = run.run_dir;
-  entry["fidelity"] = run.profile;
+  entry["fidelity"] = run.profile == "realistic" ? run.flight->realistic_profile : run.profile;
   if (!run.error.empty()) {
     std::printf("%-28s %-40s  FAILED: %s\n", run.name.c_str(), "run", run.error.c_str());
     entry["error"] = run.error;
@@ -276,7 +282,8 @@ int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::strin
       run.ideal = profile == "ideal";
       run.name = run.ideal ? flight.name : flight.name + "-" + profile;
       run.overrides = overrides;
-      run.overrides.insert(run.overrides.begin(), "fidelity=" + profile);  // --set may still change it
+      const std::string& flown = profile == "realistic" ? flight.realistic_profile : profile;
+      run.overrides.insert(run.overrides.begin(), "fidelity=" + flown);  // --set may still change it
       if (!run.ideal && flight.realistic_seed != 0) {
         run.overrides.insert(run.overrides.begin() + 1, "seed=" + std::to_string(flight.realistic_seed));
       }
@@ -336,7 +343,8 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
   int failures = 0;
   for (const Flight& flight : flights) {
     nlohmann::json& entry = (*report)[flight.name];
-    entry["fidelity"] = fidelity;
+    const std::string& flown = fidelity == "realistic" ? flight.realistic_profile : fidelity;
+    entry["fidelity"] = flown;
     std::vector<nlohmann::json> metrics;
     std::vector<std::string> csvs;
     // the flight's contact bounds in the profile flown: what doing its task means
@@ -350,10 +358,14 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
     SweepSpec spec;
     spec.name = flight.name;
     spec.scenario = fs::absolute(flight.scenario).lexically_normal().string();
+    // the profile first, so that the suite's Monte Carlo keys and --set lie over it
     spec.overrides = overrides;
+    spec.overrides.insert(spec.overrides.begin(), "fidelity=" + flown);
     spec.keep_bags = keep_bags;
     try {  // a draw's plots are the band plot's
-      const RunEvaluation evaluation = ReadRunEvaluation(bridge::LoadScenario(flight.scenario, overrides));
+      const bridge::Scenario scenario = bridge::LoadScenario(flight.scenario, spec.overrides);
+      entry["fidelity"] = scenario.fidelity;  // a --set fidelity=... included
+      const RunEvaluation evaluation = ReadRunEvaluation(scenario);
       if (evaluation.empty())
         throw bridge::ConfigError(flight.scenario + ": the scenario has no evaluation section");
       if (evaluation.tracking) spec.overrides.push_back("evaluation.tracking.plots=false");
@@ -476,7 +488,8 @@ int Regress(const RegressArgs& args) {
   fs::create_directories(out_dir);
   const std::vector<Flight> flights = Selected(suite.flights, args.only);
 
-  // the profile, then the suite's Monte Carlo settings, so the command line's --set wins
+  // the suite's Monte Carlo settings, then the command line's --set (each Monte Carlo flight puts its
+  // profile first)
   std::vector<std::string> overrides{"mode=lockstep"};
   const std::string monte_carlo_fidelity = args.fidelity.empty() ? "realistic" : args.fidelity;
   if (args.monte_carlo == 0 && args.execution.slurm) {
@@ -490,7 +503,6 @@ int Regress(const RegressArgs& args) {
       std::cerr << "iapsim: --monte-carlo flies one profile: --fidelity ideal or realistic" << std::endl;
       return 2;
     }
-    overrides.push_back("fidelity=" + monte_carlo_fidelity);
     overrides.insert(overrides.end(), suite.monte_carlo_overrides.begin(), suite.monte_carlo_overrides.end());
   }
   overrides.insert(overrides.end(), args.overrides.begin(), args.overrides.end());

@@ -118,5 +118,48 @@ TEST(FidelityProfile, AProfileFileIsFoundBesideTheScenarioAndResolvedToAnAbsolut
   std::filesystem::remove_all(dir);
 }
 
+TEST(FidelityProfile, TheArenaProfileIsTheRealisticOneInStillAirOnMotionCapture) {
+  const Scenario outdoors = LoadScenario(kRegression + "peg_in_hole.yaml", {"fidelity=realistic"});
+  const Scenario arena = LoadScenario(kRegression + "peg_in_hole.yaml", {"fidelity=realistic_indoor"});
+  const YAML::Node air = ParamsOf(arena, "physics")["air"];
+  EXPECT_EQ(air["wind_W_mps"][0].as<double>(), 0.0);
+  EXPECT_FALSE(air["turbulence"]);  // `~` in the profile removed its base's
+  EXPECT_TRUE(ParamsOf(outdoors, "physics")["air"]["turbulence"]);
+  const YAML::Node odometry = ParamsOf(arena, "sensors")["odometry"];
+  EXPECT_EQ(odometry["position_drift_m_per_sqrt_s"].as<double>(), 0.0);
+  EXPECT_EQ(odometry["position_sigma_m"].as<double>(), 0.001);
+  // everything else is its base's
+  EXPECT_EQ(odometry["rate_hz"].as<double>(),
+            ParamsOf(outdoors, "sensors")["odometry"]["rate_hz"].as<double>());
+  EXPECT_EQ(YAML::Dump(ParamsOf(arena, "physics")["uncertainty"]),
+            YAML::Dump(ParamsOf(outdoors, "physics")["uncertainty"]));
+  EXPECT_EQ(arena.Find("control")->after, outdoors.Find("control")->after);
+  EXPECT_EQ(arena.lead_in_s, outdoors.lead_in_s);
+}
+
+TEST(FidelityProfile, AProfilesBaseThatIsMissingOrACycleIsAnErrorNamingTheKey) {
+  const std::filesystem::path dir =
+      std::filesystem::path(::testing::TempDir()) / ("iapsim-profile-base-" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "flight.yaml")
+      << "name: f\nprocesses:\n  physics: {exec: iapsim_physics, role: clock}\n";
+  std::ofstream(dir / "a.yaml") << "base: b.yaml\nprocesses: {}\n";
+  std::ofstream(dir / "b.yaml") << "base: a.yaml\nprocesses: {}\n";
+  std::ofstream(dir / "lost.yaml") << "base: nowhere\nprocesses: {}\n";
+  std::ofstream(dir / "extra.yaml") << "base: realistic\nprocesses:\n  iapsim_physics:\n    params:\n"
+                                       "      air: {gusts: ~}\n";
+  const std::string flight = (dir / "flight.yaml").string();
+  const std::string cycle = ErrorOf(flight, {"fidelity=a.yaml"});
+  EXPECT_NE(cycle.find("base: 'a.yaml' is this profile or one it is based on (a cycle)"), std::string::npos)
+      << cycle;
+  const std::string lost = ErrorOf(flight, {"fidelity=lost.yaml"});
+  EXPECT_NE(lost.find("lost.yaml"), std::string::npos) << lost;
+  EXPECT_NE(lost.find("base: expected a profile of"), std::string::npos) << lost;
+  const std::string extra = ErrorOf(flight, {"fidelity=extra.yaml"});
+  EXPECT_NE(extra.find("gusts: ~ removes a key of the base, which has none here"), std::string::npos)
+      << extra;
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace iapsim::bridge
