@@ -522,7 +522,8 @@ for pid in $launchers; do
 done
 ! pgrep -f "$work/pair/stopped" > /dev/null || fail "processes of the interrupted regress remain: $(pgrep -af "$work/pair/stopped")"
 
-# Monte Carlo: seeded draws of a model mismatch, their percentiles and band plot, a bound on a percentile
+# Monte Carlo: seeded draws of a model mismatch, their percentiles and band plot, a bound on a percentile;
+# the flight names the realistic profile it flies (the arena's, which keeps the base profile's mismatch)
 mkdir -p "$work/mc"
 cat > "$work/mc/suite.yaml" <<EOF
 monte_carlo:
@@ -534,6 +535,7 @@ flights:
   spiral:
     scenario: $src/configs/regression/three_star_spiral.yaml
     max: {position_max_m: [0.0, 0.0, 0.0]}   # the ideal bounds: not checked in Monte Carlo mode
+    realistic: {fidelity: realistic_indoor}
     monte_carlo: {max: {position_max_m: [1.0, 1.0, 0.001]}}
 EOF
 set +e
@@ -551,7 +553,7 @@ grep -q "position_max_m.x p95 .* ok" "$work/mc.out" || fail "no passed p95 check
 import json, sys
 out = sys.argv[1]
 summary = json.load(open(out + '/spiral/metrics.json'))
-assert summary['fidelity'] == 'realistic', summary['fidelity']  # Monte Carlo flies the realistic profile
+assert summary['fidelity'] == 'realistic_indoor', summary['fidelity']  # the flight's realistic profile
 stats = summary['tracking']['position_max_m']['z']
 draws = [json.load(open(f'{out}/spiral/draw-{k}/metrics.json')) for k in (1, 2, 3)]
 z = sorted(d['tracking']['position_max_m']['z'] for d in draws)
@@ -560,6 +562,9 @@ assert abs(stats['p50'] - z[1]) < 1e-12 and z[1] < stats['p95'] < z[2], (stats, 
 assert len(set(z)) == 3, z  # each seed draws another vehicle
 masses = {d['processes']['physics']['process']['true_model']['iap/platform/mass_kg']['drawn'] for d in draws}
 assert len(masses) == 3, masses
+for k in (1, 2, 3):  # in the arena: still air
+    resolved = open(f'{out}/spiral/draw-{k}/scenario.resolved.yaml').read()
+    assert 'turbulence' not in resolved and 'fidelity: realistic_indoor' in resolved, k
 " "$work/mc/out" || fail "Monte Carlo statistics"
 # the same --out again: the finished draws are not flown again, the checks are the same
 cp "$work/mc/out/spiral/metrics.json" "$work/mc/first.json"

@@ -1,12 +1,15 @@
 # What the end-to-end test scripts share; source it right after `set -euo pipefail` with the script's
-# arguments BUILD_BIN_DIR SOURCE_DIR: $bin, $src, $iapsim, a scratch folder $work removed on exit, `fail`,
-# `expect_exit` and `wait_code`.
+# arguments BUILD_BIN_DIR SOURCE_DIR: $bin, $src, $iapsim, a scratch folder $work (the working folder)
+# removed on exit, `fail`, `expect_exit` and `wait_code`.
 # shellcheck shell=bash
-bin=$1
-src=$2
+bin=$(realpath "$1")
+src=$(realpath "$2")
 iapsim=$bin/iapsim
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
+# each script works in its own folder: what a command writes beside it (runs/latest, the newest run) is its
+# own while other tests run at the same time (make test runs them side by side)
+cd "$work"
 fail() { echo "FAIL: $*" >&2; exit 1; }
 expect_exit() {  # CODE TEXT COMMAND...: expects the exit code and TEXT (literally) on its standard error
   set +e
