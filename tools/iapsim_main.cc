@@ -123,7 +123,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100000));
   regress_cmd
       ->add_option("--fidelity", regress.fidelity,
-                   "the profile flown: ideal, realistic or both (default both; Monte Carlo: realistic)")
+                   "the profile flown: ideal, realistic (or the one a flight's realistic.fidelity names) or "
+                   "both (default both; Monte Carlo: realistic)")
       ->check(CLI::IsMember({"ideal", "realistic", "both"}));
   regress_cmd->add_flag("--keep-bags", regress.keep_bags,
                         "Monte Carlo: keep each draw's run.bag (by default deleted once evaluated)");

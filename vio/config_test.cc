@@ -1,6 +1,7 @@
 #include "vio/config.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
@@ -36,7 +37,7 @@ TEST(VioConfigTest, NoFileGivesTheDefaultsOfTableIX) {
 }
 
 TEST(VioConfigTest, AFileAndOverridesSetTheirKeys) {
-  const std::string path = ::testing::TempDir() + "vio_config_test.yaml";
+  const std::string path = ::testing::TempDir() + "vio_config_test_" + std::to_string(getpid()) + ".yaml";
   std::ofstream(path) << "tracker: {max_features: 200}\nestimator:\n  window_keyframes: 8\nvirpo:\n"
                          "  sigma_attitude_rad: 0.04\n";
   const VioConfig config = LoadVioConfig(
