@@ -61,6 +61,11 @@ struct Flight {
   // the profile the flight flies where the suite flies `realistic`: a task flown in a laboratory names the
   // arena's (realistic_indoor)
   std::string realistic_profile = "realistic";
+
+  // The profile this flight flies where the suite flies `profile` (ideal or realistic).
+  std::string ProfileFor(const std::string& profile) const {
+    return profile == "realistic" ? realistic_profile : profile;
+  }
   // --monte-carlo: bounds on the draws' 95th (max) and 5th (min) percentiles, and the least fraction of
   // draws that meet the flight's own contact bounds (that did the task)
   std::vector<Bound> monte_carlo_bounds;
@@ -180,7 +185,8 @@ Suite ReadSuite(const std::string& suite_dir) {
 struct FlightRun {
   std::string name;  // <flight> or <flight>-<profile>
   const Flight* flight = nullptr;
-  std::string profile;  // ideal, realistic
+  std::string profile;   // ideal, realistic
+  std::string fidelity;  // the profile flown: the flight's for `realistic`, or a --set fidelity=...
   bool ideal = true;
   std::vector<std::string> overrides;
   std::string run_dir;  // empty for a run that failed before flying
@@ -249,7 +255,7 @@ std::vector<Flight> Selected(const std::vector<Flight>& flights, const std::vect
 int Report(const FlightRun& run, nlohmann::json* report) {
   nlohmann::json& entry = (*report)[run.name];
   if (!run.run_dir.empty()) entry["run_dir"] = run.run_dir;
-  entry["fidelity"] = run.profile == "realistic" ? run.flight->realistic_profile : run.profile;
+  entry["fidelity"] = run.fidelity;
   if (!run.error.empty()) {
     std::printf("%-28s %-40s  FAILED: %s\n", run.name.c_str(), "run", run.error.c_str());
     entry["error"] = run.error;
@@ -282,8 +288,8 @@ int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::strin
       run.ideal = profile == "ideal";
       run.name = run.ideal ? flight.name : flight.name + "-" + profile;
       run.overrides = overrides;
-      const std::string& flown = profile == "realistic" ? flight.realistic_profile : profile;
-      run.overrides.insert(run.overrides.begin(), "fidelity=" + flown);  // --set may still change it
+      run.fidelity = flight.ProfileFor(profile);
+      run.overrides.insert(run.overrides.begin(), "fidelity=" + run.fidelity);  // --set may still change it
       if (!run.ideal && flight.realistic_seed != 0) {
         run.overrides.insert(run.overrides.begin() + 1, "seed=" + std::to_string(flight.realistic_seed));
       }
@@ -295,7 +301,9 @@ int RegressOnce(const std::vector<Flight>& flights, const std::vector<std::strin
   for (size_t i = 0; i < runs.size(); ++i) {
     FlightRun& run = runs[i];
     try {
-      if (ReadRunEvaluation(bridge::LoadScenario(run.flight->scenario, run.overrides)).empty()) {
+      const bridge::Scenario scenario = bridge::LoadScenario(run.flight->scenario, run.overrides);
+      run.fidelity = scenario.fidelity;
+      if (ReadRunEvaluation(scenario).empty()) {
         run.error = "the scenario has no evaluation section";
       }
     } catch (const bridge::ConfigError& e) {
@@ -343,7 +351,7 @@ int RegressMonteCarlo(const std::vector<Flight>& flights, const std::vector<std:
   int failures = 0;
   for (const Flight& flight : flights) {
     nlohmann::json& entry = (*report)[flight.name];
-    const std::string& flown = fidelity == "realistic" ? flight.realistic_profile : fidelity;
+    const std::string flown = flight.ProfileFor(fidelity);
     entry["fidelity"] = flown;
     std::vector<nlohmann::json> metrics;
     std::vector<std::string> csvs;
