@@ -2,12 +2,9 @@
 // leaves out, the scenario's own values and --set winning; a missing required process and an unknown profile
 // are errors naming the key.
 #include <gtest/gtest.h>
-#include <unistd.h>
-
-#include <filesystem>
-#include <fstream>
 
 #include "bridge/scenario.h"
+#include "tests/support/test_folder.h"
 
 namespace iapsim::bridge {
 namespace {
@@ -105,17 +102,22 @@ TEST(FidelityProfile, ARequiredProcessMissingOrAnUnknownProfileIsAnErrorNamingTh
 }
 
 TEST(FidelityProfile, AProfileFileIsFoundBesideTheScenarioAndResolvedToAnAbsolutePath) {
-  const std::filesystem::path dir =
-      std::filesystem::path(::testing::TempDir()) / ("iapsim-profile-" + std::to_string(getpid()));
-  std::filesystem::create_directories(dir);
-  std::ofstream(dir / "windy.yaml")
-      << "processes:\n  iapsim_physics:\n    params:\n      air: {wind_W_mps: [1, 2, 3]}\n";
-  std::ofstream(dir / "flight.yaml") << "name: f\nfidelity: windy.yaml\nprocesses:\n"
-                                        "  physics: {exec: iapsim_physics, role: clock}\n";
-  const Scenario scenario = LoadScenario((dir / "flight.yaml").string());
-  EXPECT_EQ(scenario.fidelity, (dir / "windy.yaml").string());
+  const test_support::TestFolder dir("iapsim-profile");
+  const std::string windy = dir.Write(
+      "windy.yaml", "processes:\n  iapsim_physics:\n    params:\n      air: {wind_W_mps: [1, 2, 3]}\n");
+  const std::string flight = dir.Write("flight.yaml",
+                                       "name: f\nfidelity: windy.yaml\nprocesses:\n"
+                                       "  physics: {exec: iapsim_physics, role: clock}\n");
+  const Scenario scenario = LoadScenario(flight);
+  EXPECT_EQ(scenario.fidelity, windy);
   EXPECT_EQ(ParamsOf(scenario, "physics")["air"]["wind_W_mps"][2].as<double>(), 3.0);
-  std::filesystem::remove_all(dir);
+  // a profile file on another beside it: the base's keys, the profile's over them
+  dir.Write("gusty.yaml",
+            "base: windy.yaml\nprocesses:\n  iapsim_physics:\n    params:\n"
+            "      air: {gusts: [{start_s: 1, rise_s: 1, hold_s: 1, amplitude_W_mps: [0, 1, 0]}]}\n");
+  const YAML::Node air = ParamsOf(LoadScenario(flight, {"fidelity=gusty.yaml"}), "physics")["air"];
+  EXPECT_EQ(air["wind_W_mps"][2].as<double>(), 3.0);
+  EXPECT_EQ(air["gusts"].size(), 1u);
 }
 
 TEST(FidelityProfile, TheArenaProfileIsTheRealisticOneInStillAirOnMotionCapture) {
@@ -138,17 +140,14 @@ TEST(FidelityProfile, TheArenaProfileIsTheRealisticOneInStillAirOnMotionCapture)
 }
 
 TEST(FidelityProfile, AProfilesBaseThatIsMissingOrACycleIsAnErrorNamingTheKey) {
-  const std::filesystem::path dir =
-      std::filesystem::path(::testing::TempDir()) / ("iapsim-profile-base-" + std::to_string(getpid()));
-  std::filesystem::create_directories(dir);
-  std::ofstream(dir / "flight.yaml")
-      << "name: f\nprocesses:\n  physics: {exec: iapsim_physics, role: clock}\n";
-  std::ofstream(dir / "a.yaml") << "base: b.yaml\nprocesses: {}\n";
-  std::ofstream(dir / "b.yaml") << "base: a.yaml\nprocesses: {}\n";
-  std::ofstream(dir / "lost.yaml") << "base: nowhere\nprocesses: {}\n";
-  std::ofstream(dir / "extra.yaml") << "base: realistic\nprocesses:\n  iapsim_physics:\n    params:\n"
-                                       "      air: {gusts: ~}\n";
-  const std::string flight = (dir / "flight.yaml").string();
+  const test_support::TestFolder dir("iapsim-profile-base");
+  const std::string flight =
+      dir.Write("flight.yaml", "name: f\nprocesses:\n  physics: {exec: iapsim_physics, role: clock}\n");
+  dir.Write("a.yaml", "base: b.yaml\nprocesses: {}\n");
+  dir.Write("b.yaml", "base: a.yaml\nprocesses: {}\n");
+  dir.Write("lost.yaml", "base: nowhere\nprocesses: {}\n");
+  dir.Write("extra.yaml",
+            "base: realistic\nprocesses:\n  iapsim_physics:\n    params:\n      air: {gusts: ~}\n");
   const std::string cycle = ErrorOf(flight, {"fidelity=a.yaml"});
   EXPECT_NE(cycle.find("base: 'a.yaml' is this profile or one it is based on (a cycle)"), std::string::npos)
       << cycle;
@@ -158,7 +157,6 @@ TEST(FidelityProfile, AProfilesBaseThatIsMissingOrACycleIsAnErrorNamingTheKey) {
   const std::string extra = ErrorOf(flight, {"fidelity=extra.yaml"});
   EXPECT_NE(extra.find("gusts: ~ removes a key of the base, which has none here"), std::string::npos)
       << extra;
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
